@@ -1,0 +1,50 @@
+#include <memory>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "stemmap/cli/commands.h"
+#include "stemmap/sim/simulate.h"
+
+namespace stemmap::cli {
+
+void ApplyLogLevel(const CLI::App& app) {
+  const CLI::App* root = &app;
+  while (root->get_parent()) root = root->get_parent();
+  spdlog::set_level(spdlog::level::from_str(root->get_option("--log-level")->as<std::string>()));
+}
+
+void AddSimulateCommand(CLI::App& app) {
+  auto opt = std::make_shared<sim::SimulateOptions>();
+  auto kind = std::make_shared<std::string>("managed");
+  CLI::App* sub = app.add_subcommand(
+      "simulate", "Render a plot capture (video.mp4, truth.json, trajectory_truth.tum)");
+  sub->add_option("--seed", opt->seed, "Everything follows from it")->capture_default_str();
+  sub->add_option("--kind", *kind, "managed or natural")
+      ->check(CLI::IsMember({"managed", "natural"}))
+      ->capture_default_str();
+  sub->add_option("--out", opt->out_dir, "Output folder")->required();
+  sub->add_option("--width", opt->width, "Frame width (px)")->capture_default_str();
+  sub->add_option("--height", opt->height, "Frame height (px)")->capture_default_str();
+  sub->add_option("--fps", opt->fps, "Frames per second")->capture_default_str();
+  sub->add_option("--seconds", opt->seconds, "Clip length (default: 40-50 s from the seed)");
+  sub->add_option("--turns", opt->turns, "Arm turns over the clip (default: 1.05-1.15)");
+  sub->add_option("--arm-radius", opt->arm_radius_m, "Arm length (m)")->capture_default_str();
+  sub->add_option("--hfov", opt->hfov_deg, "Horizontal field of view (deg, default: 60-75)");
+  sub->add_option("--k1", opt->k1, "Radial distortion of the simulated lens")->capture_default_str();
+  sub->add_option("--bitrate", opt->bitrate_mbps, "H.264 bitrate (Mbit/s, default: phone-like)");
+  sub->add_option("--layout", opt->layout_csv, "Stem map CSV with x, y, dbh (cm) columns")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--layout-plot", opt->layout_plot,
+                  "Plot id in the layout's id/plot column (default: the first)");
+  sub->add_option("--stills", opt->stills, "PNG frames to write to OUT/stills")
+      ->capture_default_str();
+  sub->callback([sub, opt, kind] {
+    ApplyLogLevel(*sub);
+    opt->kind = sim::ParseStandKind(*kind);
+    const sim::SimulateSummary s = sim::RunSimulate(*opt);
+    fmt::print("simulate: {}\nwrote {}\n", s.BriefReport(), opt->out_dir.string());
+  });
+}
+
+}  // namespace stemmap::cli

@@ -1,0 +1,49 @@
+#include "stemmap/core/io.h"
+
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "stemmap/core/error.h"
+
+namespace stemmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TestDir() {
+  const fs::path dir = fs::temp_directory_path() / ("stemmap_io_test_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  return dir;
+}
+
+TEST(Io, AtomicWriteCreatesFolderAndLeavesNoTemporaries) {
+  const fs::path dir = TestDir() / "a" / "b";
+  WriteFileAtomic(dir / "x.txt", "hello");
+  EXPECT_EQ(ReadFileToString(dir / "x.txt"), "hello");
+  WriteFileAtomic(dir / "x.txt", "again");
+  EXPECT_EQ(ReadFileToString(dir / "x.txt"), "again");
+  int files = 0;
+  for ([[maybe_unused]] const auto& e : fs::directory_iterator(dir)) ++files;
+  EXPECT_EQ(files, 1);
+}
+
+TEST(Io, ReadMissingFileNamesIt) {
+  try {
+    ReadFileToString("/nonexistent/stemmap/file.json");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/stemmap/file.json"), std::string::npos);
+  }
+}
+
+TEST(Io, BadJsonIsAnInputError) {
+  const fs::path path = TestDir() / "bad.json";
+  WriteFileAtomic(path, "{not json");
+  EXPECT_THROW(ReadJsonFile(path), InputError);
+  WriteJsonAtomic(path, {{"a", 1}});
+  EXPECT_EQ(ReadJsonFile(path)["a"], 1);
+}
+
+}  // namespace
+}  // namespace stemmap

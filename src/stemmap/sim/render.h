@@ -1,0 +1,74 @@
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
+#include "stemmap/sim/scene.h"
+
+namespace stemmap::sim {
+
+struct RenderOptions {
+  bool antialias = true;     // extra samples on pixels at object or depth edges
+  int edge_samples = 4;      // samples added to each edge pixel
+  double shadow_texel_m = 0.05;
+  void Check() const;
+};
+
+// What one render produces, before any camera effect (exposure, blur, noise).
+struct RenderBuffers {
+  cv::Mat radiance;  // CV_32FC3 linear RGB
+  cv::Mat depth_m;   // CV_32F distance along the camera z axis; large for sky
+};
+
+// Ray-casts a Scene for a pinhole camera. Construction precomputes the sun's shadow map and the
+// camera's ray table; Render() is then thread-safe and deterministic.
+class Renderer {
+ public:
+  Renderer(const Scene& scene, const PinholeCamera& camera, const RenderOptions& options);
+
+  RenderBuffers Render(const Rigid3d& world_from_cam) const;
+
+  struct Sample {
+    Eigen::Vector3f rgb;
+    float t = 0.0f;  // ray length
+    int object = 0;  // 0 sky, 1 ground, 2 wall, 3 canopy, 100+ trees, 100000+ shrubs
+  };
+  struct Candidate {
+    int index;              // tree index, or -(shrub index + 1)
+    double min_dist_xy_m;   // nearest the object can be, horizontally
+    double centre_az, half_width;
+  };
+  // One ray through the scene; `candidates` are the objects that may lie along it, nearest first.
+  Sample Trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+               const std::vector<Candidate>& candidates) const;
+
+ private:
+  Eigen::Vector3f ShadeSurface(const Eigen::Vector3d& p, const Eigen::Vector3d& n,
+                               const Eigen::Vector3f& albedo, double occlusion) const;
+  double SunVisibility(const Eigen::Vector3d& p) const;
+  Eigen::Vector3f Sky(const Eigen::Vector3d& d) const;
+  Eigen::Vector3f Wall(const Eigen::Vector3d& p, const Eigen::Vector3d& d) const;
+  Eigen::Vector3f GroundAlbedo(double x, double y) const;
+  double IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max) const;
+  bool IntersectShrub(int k, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max,
+                      double* t, Eigen::Vector3d* n, Eigen::Vector3f* albedo) const;
+  void BuildShadowMap();
+  std::vector<Candidate> ColumnCandidates(const Eigen::Vector3d& cam_centre,
+                                          const std::vector<Candidate>& objects,
+                                          double col_az, double col_half) const;
+
+  const Scene& scene_;
+  PinholeCamera camera_;
+  RenderOptions options_;
+  std::vector<Eigen::Vector3f> cam_rays_;  // unit rays per pixel, camera frame
+  // Sun shadow map: distance from the canopy plane along -sun to the first trunk.
+  cv::Mat shadow_depth_;
+  double shadow_origin_x_ = 0.0, shadow_origin_y_ = 0.0;
+  double wall_radius_m_ = 45.0;
+  ValueNoise ground_noise_, canopy_noise_, wall_noise_;
+};
+
+}  // namespace stemmap::sim

@@ -1,0 +1,148 @@
+#include "stemmap/sim/simulate.h"
+
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <spdlog/spdlog.h>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/error.h"
+#include "stemmap/core/io.h"
+#include "stemmap/core/progress.h"
+#include "stemmap/core/rng.h"
+#include "stemmap/sim/render.h"
+#include "stemmap/sim/rig.h"
+#include "stemmap/sim/sensor.h"
+#include "stemmap/sim/truth.h"
+#include "stemmap/video/video_writer.h"
+
+namespace stemmap::sim {
+
+namespace fs = std::filesystem;
+
+void SimulateOptions::Check() const {
+  if (out_dir.empty()) throw InputError("simulate needs an output folder (--out)");
+  if (width < 64 || height < 64 || width > 4096 || height > 4096 || width % 2 || height % 2) {
+    throw InputError(fmt::format("frame size {}x{}: use even sizes from 64 to 4096", width, height));
+  }
+  if (!(fps >= 1 && fps <= 120)) throw InputError(fmt::format("fps {} out of [1, 120]", fps));
+  if (seconds < 0 || seconds > 600) throw InputError("seconds must be in (0, 600]");
+  if (turns < 0 || turns > 3) throw InputError("turns must be in (0, 3]");
+  if (!(arm_radius_m >= 0.2 && arm_radius_m <= 3.0)) {
+    throw InputError(fmt::format("arm radius {} m out of [0.2, 3]", arm_radius_m));
+  }
+  if (hfov_deg != 0 && !(hfov_deg >= 20 && hfov_deg <= 120)) {
+    throw InputError(fmt::format("hfov {}° out of [20, 120]", hfov_deg));
+  }
+  if (std::abs(k1) > 0.3) throw InputError("|k1| must be at most 0.3");
+  if (stills < 0 || stills > 20) throw InputError("stills must be in [0, 20]");
+}
+
+std::string SimulateSummary::BriefReport() const {
+  return fmt::format("{} frames ({:.1f} s of video), {} trees within 10 m ({} in the scene), "
+                     "rendered in {:.1f} s",
+                     frames, seconds, plot_trees, all_trees, wall_s);
+}
+
+void to_json(nlohmann::json& j, const SimulateOptions& o) {
+  j = {{"seed", o.seed},         {"kind", ToString(o.kind)},     {"width", o.width},
+       {"height", o.height},     {"fps", o.fps},                 {"seconds", o.seconds},
+       {"turns", o.turns},       {"arm_radius_m", o.arm_radius_m}, {"hfov_deg", o.hfov_deg},
+       {"k1", o.k1},             {"bitrate_mbps", o.bitrate_mbps},
+       {"layout_csv", o.layout_csv.string()}, {"layout_plot", o.layout_plot},
+       {"stills", o.stills}};
+}
+
+SimulateSummary RunSimulate(const SimulateOptions& o) {
+  o.Check();
+  const auto start = std::chrono::steady_clock::now();
+  Rng rng(HashCombine(o.seed, 0xC0FFEE));
+
+  SceneOptions scene_options;
+  scene_options.kind = o.kind;
+  scene_options.seed = o.seed;
+  if (!o.layout_csv.empty()) scene_options.layout = ReadLayoutCsv(o.layout_csv, o.layout_plot);
+  const Scene scene = GenerateScene(scene_options);
+
+  PinholeCamera camera = PinholeCamera::FromHfov(
+      o.width, o.height, o.hfov_deg > 0 ? o.hfov_deg : rng.Uniform(60.0, 75.0));
+  camera.cx += rng.Uniform(-0.01, 0.01) * o.width;
+  camera.cy += rng.Uniform(-0.01, 0.01) * o.height;
+  camera.k1 = o.k1;
+
+  RigParams rig;
+  rig.arm_radius_m = o.arm_radius_m;
+  rig.camera_height_m = rng.Uniform(1.25, 1.40);
+  rig.seconds = o.seconds > 0 ? o.seconds : rng.Uniform(40.0, 50.0);
+  rig.turns = o.turns > 0 ? o.turns : rng.Uniform(1.05, 1.15);
+  rig.fps = o.fps;
+  rig.stand_tilt_deg = rng.Uniform(0.0, 1.5);
+  rig.stand_tilt_azimuth_rad = rng.Uniform(0, 2 * std::numbers::pi);
+  rig.mount_pitch_deg = std::clamp(rng.Normal(0, 1.5), -3.0, 3.0);
+  rig.mount_roll_deg = std::clamp(rng.Normal(0, 0.8), -1.5, 1.5);
+  rig.mount_yaw_deg = std::clamp(rng.Normal(0, 1.0), -2.0, 2.0);
+  rig.direction = rng.Bernoulli(0.5) ? 1 : -1;
+  rig.seed = rng.NextU64();
+  const std::vector<RigFrame> frames = SimulateRig(rig);
+
+  SensorParams sensor_params;
+  sensor_params.exposure_time_s = 1.0 / rng.Uniform(60.0, 120.0);
+  sensor_params.seed = rng.NextU64();
+  SensorModel sensor(sensor_params, camera);
+
+  fs::create_directories(o.out_dir);
+  WriteJsonAtomic(o.out_dir / "simulate_options.json", nlohmann::json(o));
+  WriteTruth(o.out_dir / "truth.json", scene, camera, rig, frames, o.seed);
+  std::vector<StampedPose> poses;
+  for (const RigFrame& f : frames) poses.push_back({f.t_s, f.world_from_cam});
+  WriteTumTrajectory(o.out_dir / "trajectory_truth.tum", poses);
+
+  VideoWriterOptions vw;
+  vw.width = o.width;
+  vw.height = o.height;
+  vw.fps = o.fps;
+  vw.bitrate_mbps = o.bitrate_mbps > 0 ? o.bitrate_mbps
+                                       : 17.0 * (o.width * o.height) / (1920.0 * 1080.0) *
+                                             std::max(0.5, o.fps / 30.0);
+  VideoWriter writer(o.out_dir / "video.mp4", vw);
+  const Renderer renderer(scene, camera, RenderOptions{});
+  std::vector<int> still_frames;
+  for (int k = 0; k < o.stills; ++k) {
+    still_frames.push_back(static_cast<int>(frames.size()) * k / std::max(o.stills, 1));
+  }
+  Progress progress("simulate", static_cast<int64_t>(frames.size()));
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const RenderBuffers buffers = renderer.Render(frames[i].world_from_cam);
+    const cv::Mat bgr = sensor.Capture(buffers, frames[i].yaw_rate_rad_s, o.arm_radius_m,
+                                       static_cast<int>(i), 1.0 / o.fps);
+    writer.Write(bgr);
+    if (std::find(still_frames.begin(), still_frames.end(), static_cast<int>(i)) !=
+        still_frames.end()) {
+      const fs::path png = o.out_dir / "stills" / fmt::format("frame_{:05d}.png", i);
+      fs::create_directories(png.parent_path());
+      std::vector<uchar> buf;
+      cv::imencode(".png", bgr, buf);
+      WriteFileAtomic(png, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
+    }
+    progress.Update(static_cast<int64_t>(i + 1));
+  }
+  progress.Finish();
+  writer.Close();
+
+  SimulateSummary summary;
+  summary.frames = static_cast<int>(frames.size());
+  summary.seconds = frames.size() / o.fps;
+  for (const SceneTree& t : scene.trees) {
+    if (t.sapling) continue;
+    ++summary.all_trees;
+    if (t.stem.AxisPoint(t.stem.params().s_bh_m).head<2>().norm() <= 10.0) ++summary.plot_trees;
+  }
+  summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace stemmap::sim

@@ -1,0 +1,46 @@
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "stemmap/sim/scene.h"
+
+namespace stemmap::sim {
+
+// `stemmap simulate`: renders the capture protocol for a generated (or given) stand.
+// Zero or negative values mean "draw from the seed".
+struct SimulateOptions {
+  uint64_t seed = 1;
+  StandKind kind = StandKind::kManaged;
+  std::filesystem::path out_dir;
+  int width = 1920;
+  int height = 1080;
+  double fps = 30.0;
+  double seconds = 0.0;        // 0: 40-50 s
+  double turns = 0.0;          // 0: 1.05-1.15
+  double arm_radius_m = 1.0;
+  double hfov_deg = 0.0;       // 0: 60-75°
+  double k1 = 0.0;             // radial distortion of the simulated lens
+  double bitrate_mbps = 0.0;   // 0: a phone's rate scaled to the frame size
+  std::filesystem::path layout_csv;
+  std::string layout_plot;     // plot id inside the layout (default: the first)
+  int stills = 3;              // PNG frames written to out_dir/stills
+  void Check() const;
+};
+
+struct SimulateSummary {
+  int frames = 0;
+  double seconds = 0.0;
+  int plot_trees = 0;      // trees within 10 m of the centre
+  int all_trees = 0;
+  double wall_s = 0.0;
+  std::string BriefReport() const;
+};
+
+SimulateSummary RunSimulate(const SimulateOptions& options);
+
+void to_json(nlohmann::json& j, const SimulateOptions& o);
+
+}  // namespace stemmap::sim

@@ -1,0 +1,286 @@
+#include "stemmap/sim/stem.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <vector>
+
+#include "stemmap/core/rng.h"
+
+namespace stemmap::sim {
+
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+constexpr double kBelowGroundM = 0.6;   // stems reach below the surface so slopes leave no gap
+constexpr double kFurrowWidth = 0.18;   // furrow half-width as a share of one plate
+constexpr double kCrackWidth = 0.04;
+constexpr double kPlateLengthM = 0.09;
+
+// Entry and exit of a ray with the infinite cylinder x^2 + y^2 = r^2 (stem frame).
+bool CylinderSpan(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r, double* t0,
+                  double* t1) {
+  const double a = d.x() * d.x() + d.y() * d.y();
+  const double b = o.x() * d.x() + o.y() * d.y();
+  const double c = o.x() * o.x() + o.y() * o.y() - r * r;
+  if (a < 1e-14) {
+    if (c > 0) return false;
+    *t0 = -1e30;
+    *t1 = 1e30;
+    return true;
+  }
+  const double disc = b * b - a * c;
+  if (disc < 0) return false;
+  const double sq = std::sqrt(disc);
+  *t0 = (-b - sq) / a;
+  *t1 = (-b + sq) / a;
+  return true;
+}
+
+}  // namespace
+
+Stem::Stem(const StemParams& p) : p_(p), noise_(p.seed) {
+  axis_world_ = Eigen::Vector3d(std::sin(p.lean_rad) * std::cos(p.lean_azimuth_rad),
+                                std::sin(p.lean_rad) * std::sin(p.lean_azimuth_rad),
+                                std::cos(p.lean_rad));
+  world_from_stem_ = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis_world_);
+  a_unit_ = 2.0 / (1.0 + p.axis_ratio);
+  b_unit_ = p.axis_ratio * a_unit_;
+  cos_ell_ = std::cos(p.ellipse_azimuth_rad);
+  sin_ell_ = std::sin(p.ellipse_azimuth_rad);
+  n_furrows_ = static_cast<int>(
+      std::clamp(std::round(kTwoPi * p.radius_bh_m / p.furrow_spacing_m), 6.0, 500.0));
+  const double relief_slope_per_rad =
+      p.furrow_depth_m * 1.3 * n_furrows_ / (kFurrowWidth * kTwoPi);
+  const double r_min = std::max(0.01, MeanRadius(std::min(p.height_m, 4.0)));
+  march_lipschitz_ = 1.3 + relief_slope_per_rad / r_min;
+}
+
+double Stem::MeanRadius(double s) const {
+  const double r = p_.radius_bh_m + p_.taper_m_per_m * (p_.s_bh_m - s) +
+                   p_.radius_bh_m * p_.flare * std::exp(-std::max(s, 0.0) / p_.flare_height_m);
+  return std::max(r, 0.01);
+}
+
+double Stem::BoundRadius(double s) const {
+  return a_unit_ * MeanRadius(std::max(s, -kBelowGroundM)) + 1e-4;
+}
+
+double Stem::TurnFraction(double x, double y) {
+  const double u = std::atan2(y, x) / kTwoPi;
+  return u < 0 ? u + 1.0 : u;
+}
+
+double Stem::Relief(double u, double s) const {
+  // Furrows wander: a smooth, azimuth-periodic warp of the plate coordinate.
+  const double warp = 0.9 * noise_.Fbm2PeriodicX(u * 4.0, 0.7 * s, 4, 2);
+  const double uf = u * n_furrows_ + warp;
+  const double cell = uf - std::floor(uf);
+  const double d_furrow = std::min(cell, 1.0 - cell);
+  double relief = 0.0;
+  if (d_furrow < kFurrowWidth) {
+    const double depth_mod = 0.65 + 0.35 * noise_.Noise2PeriodicX(u * 6.0, 2.5 * s, 6);
+    const double k = 1.0 - d_furrow / kFurrowWidth;
+    relief -= p_.furrow_depth_m * depth_mod * k * std::sqrt(k);
+  }
+  // Horizontal cracks split the ridges into plates, offset per ridge.
+  const auto ridge = static_cast<uint64_t>(static_cast<int64_t>(std::floor(uf)) + 100000);
+  const double plate_len = kPlateLengthM * (0.6 + 1.2 * HashToUnit(HashCombine(ridge, p_.seed)));
+  const double v = s / plate_len + HashToUnit(HashCombine(p_.seed, ridge));
+  const double vc = v - std::floor(v);
+  const double d_crack = std::min(vc, 1.0 - vc);
+  if (d_crack < kCrackWidth) {
+    relief = std::min(relief, -0.5 * p_.furrow_depth_m * (1.0 - d_crack / kCrackWidth));
+  }
+  return relief;
+}
+
+double Stem::EllipseFactor(double c, double sn) const {
+  const double ca = c * cos_ell_ + sn * sin_ell_, sa = -c * sin_ell_ + sn * cos_ell_;
+  return a_unit_ * b_unit_ / std::sqrt(b_unit_ * b_unit_ * ca * ca + a_unit_ * a_unit_ * sa * sa);
+}
+
+double Stem::SurfaceRadius(double phi, double s) const {
+  double u = phi / kTwoPi;
+  u -= std::floor(u);
+  return EllipseFactor(std::cos(phi), std::sin(phi)) * MeanRadius(s) + Relief(u, s);
+}
+
+double Stem::Field(const Eigen::Vector3d& q) const {
+  if (q.z() < -kBelowGroundM || q.z() > p_.height_m) return 1.0;
+  const double rho = std::hypot(q.x(), q.y());
+  if (rho < 1e-9) return -MeanRadius(q.z());
+  const double e = EllipseFactor(q.x() / rho, q.y() / rho);
+  return rho - (e * MeanRadius(q.z()) + Relief(TurnFraction(q.x(), q.y()), q.z()));
+}
+
+std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                                       double t_min, double t_max, double tol_per_m) const {
+  const Eigen::Quaterniond stem_from_world = world_from_stem_.conjugate();
+  const Eigen::Vector3d os = stem_from_world * (o - p_.base_world);
+  const Eigen::Vector3d ds = stem_from_world * d;
+  // Envelope (relief-free elliptic cylinder) in coordinates where it is circular of radius r(s).
+  const double ox = (os.x() * cos_ell_ + os.y() * sin_ell_) / a_unit_;
+  const double oy = (-os.x() * sin_ell_ + os.y() * cos_ell_) / b_unit_;
+  const double dx = (ds.x() * cos_ell_ + ds.y() * sin_ell_) / a_unit_;
+  const double dy = (-ds.x() * sin_ell_ + ds.y() * cos_ell_) / b_unit_;
+  const double qa = dx * dx + dy * dy;
+  if (qa < 1e-14) return std::nullopt;
+  const double qb = ox * dx + oy * dy;
+  const double qc0 = ox * ox + oy * oy;
+  double t_closest = -qb / qa;
+  double r = MeanRadius(os.z() + t_closest * ds.z());
+  double t_in = 0.0, t_out = 0.0;
+  bool ok = false;
+  for (int it = 0; it < 4; ++it) {
+    const double disc = qb * qb - qa * (qc0 - r * r);
+    if (disc < 0) break;
+    const double sq = std::sqrt(disc);
+    t_in = (-qb - sq) / qa;
+    t_out = (-qb + sq) / qa;
+    ok = true;
+    const double r_next = MeanRadius(os.z() + t_in * ds.z());
+    if (std::abs(r_next - r) < 1e-5) break;
+    r = std::max(r, r_next);  // grow only: never start inside the surface
+  }
+  if (!ok) return std::nullopt;
+  double t = std::max(t_in - 0.002, t_min);
+  const double t_end = std::min(t_out + 0.002, t_max);
+  if (t >= t_end) return std::nullopt;
+  double f = Field(os + t * ds);
+  for (int back = 0; f < 0 && back < 4 && t > t_min; ++back) {
+    t = std::max(t - 0.03, t_min);
+    f = Field(os + t * ds);
+  }
+  double t_prev = t;
+  bool found = false;
+  for (int it = 0; it < 64 && t <= t_end; ++it) {
+    if (f < 0.0) {
+      // Overshot: bisect between the last outside point and here.
+      double lo = t_prev, hi = t;
+      for (int b = 0; b < 12; ++b) {
+        const double mid = 0.5 * (lo + hi);
+        (Field(os + mid * ds) < 0.0 ? hi : lo) = mid;
+      }
+      t = hi;
+      found = true;
+      break;
+    }
+    if (f < std::max(3e-5, tol_per_m * t)) {
+      found = true;
+      break;
+    }
+    t_prev = t;
+    t += std::max(f / march_lipschitz_, 2e-5);
+    f = Field(os + t * ds);
+  }
+  if (!found || t > t_end || t < t_min) return std::nullopt;
+
+  const Eigen::Vector3d q = os + t * ds;
+  const double h = 4e-4, f0 = Field(q);
+  const Eigen::Vector3d grad(Field(q + Eigen::Vector3d(h, 0, 0)) - f0,
+                             Field(q + Eigen::Vector3d(0, h, 0)) - f0,
+                             Field(q + Eigen::Vector3d(0, 0, h)) - f0);
+  StemHit hit;
+  hit.t = t;
+  hit.normal_world = world_from_stem_ * grad.normalized();
+  hit.albedo = Albedo(TurnFraction(q.x(), q.y()), q.z());
+  return hit;
+}
+
+bool Stem::Blocks(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max) const {
+  const Eigen::Quaterniond stem_from_world = world_from_stem_.conjugate();
+  const Eigen::Vector3d os = stem_from_world * (o - p_.base_world);
+  const Eigen::Vector3d ds = stem_from_world * d;
+  // Closest approach of the ray to the axis, in the horizontal plane of the stem frame.
+  const double a = ds.x() * ds.x() + ds.y() * ds.y();
+  if (a < 1e-12) return false;
+  const double t = std::clamp(-(os.x() * ds.x() + os.y() * ds.y()) / a, 0.0, t_max);
+  const Eigen::Vector3d q = os + t * ds;
+  if (q.z() < -kBelowGroundM || q.z() > p_.height_m) return false;
+  return std::hypot(q.x(), q.y()) < MeanRadius(q.z());
+}
+
+double Stem::EnvelopeEntry(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
+  const Eigen::Quaterniond stem_from_world = world_from_stem_.conjugate();
+  const Eigen::Vector3d os = stem_from_world * (o - p_.base_world);
+  const Eigen::Vector3d ds = stem_from_world * d;
+  const double a = ds.x() * ds.x() + ds.y() * ds.y();
+  if (a < 1e-12) return std::numeric_limits<double>::infinity();
+  double t = -(os.x() * ds.x() + os.y() * ds.y()) / a;
+  // Two passes: the radius depends on the height where the ray meets the stem.
+  for (int pass = 0; pass < 2; ++pass) {
+    const double s = os.z() + t * ds.z();
+    if (s < -kBelowGroundM || s > p_.height_m) return std::numeric_limits<double>::infinity();
+    double t0, t1;
+    if (!CylinderSpan(os, ds, MeanRadius(s), &t0, &t1)) {
+      return std::numeric_limits<double>::infinity();
+    }
+    t = t0;
+  }
+  return t > 0 ? t : std::numeric_limits<double>::infinity();
+}
+
+Eigen::Vector3f Stem::Albedo(double u, double s) const {
+  const double relief = Relief(u, s);
+  const double furrow = std::clamp(-relief / std::max(p_.furrow_depth_m, 1e-4), 0.0, 1.0);
+  const double tint = 1.0 + 0.22 * noise_.Fbm2PeriodicX(u * 8.0, 3.0 * s, 8, 3);
+  Eigen::Vector3f rgb = p_.bark_rgb * static_cast<float>(tint * (1.0 - 0.65 * furrow));
+  // Pale lichen patches, more on plates than in furrows.
+  const double l = noise_.Fbm2PeriodicX(u * 14.0, 5.0 * s + 40.0, 14, 3);
+  const double lichen_cover = std::clamp((l - (0.55 - 0.8 * p_.lichen)) * 6.0, 0.0, 1.0) *
+                              (1.0 - 0.5 * furrow);
+  rgb = rgb * (1.0f - static_cast<float>(lichen_cover)) +
+        Eigen::Vector3f(0.52f, 0.55f, 0.48f) * static_cast<float>(lichen_cover);
+  // Moss around the base, patchy.
+  if (s < 0.8 && p_.moss > 0) {
+    const double m = noise_.Fbm2PeriodicX(u * 6.0, 2.0 * s + 80.0, 6, 2);
+    const double moss_cover =
+        std::clamp((m + p_.moss - 0.3) * 3.0, 0.0, 1.0) * std::clamp((0.8 - s) / 0.5, 0.0, 1.0);
+    rgb = rgb * (1.0f - static_cast<float>(moss_cover)) +
+          Eigen::Vector3f(0.10f, 0.17f, 0.05f) * static_cast<float>(moss_cover);
+  }
+  return rgb;
+}
+
+Stem::Section Stem::MeasureSection(double s) const {
+  constexpr int kSamples = 2880;
+  std::vector<Eigen::Vector2d> pts(kSamples);
+  for (int k = 0; k < kSamples; ++k) {
+    const double phi = kTwoPi * k / kSamples;
+    const double r = SurfaceRadius(phi, s);
+    pts[k] = {r * std::cos(phi), r * std::sin(phi)};
+  }
+  // The outline is star-shaped and sorted by angle; a monotone stack keeps its convex hull.
+  std::vector<Eigen::Vector2d> hull;
+  auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+    return (a - o).x() * (b - o).y() - (a - o).y() * (b - o).x();
+  };
+  // Start from the farthest point, which is surely on the hull.
+  int start = 0;
+  for (int k = 1; k < kSamples; ++k) {
+    if (pts[k].squaredNorm() > pts[start].squaredNorm()) start = k;
+  }
+  for (int i = 0; i <= kSamples; ++i) {
+    const Eigen::Vector2d& p = pts[(start + i) % kSamples];
+    while (hull.size() >= 2 && cross(hull[hull.size() - 2], hull.back(), p) <= 0) hull.pop_back();
+    hull.push_back(p);
+  }
+  Section out{0.0, 0.0, 1e9};
+  for (size_t i = 0; i + 1 < hull.size(); ++i) out.girth_m += (hull[i + 1] - hull[i]).norm();
+  for (int k = 0; k < 720; ++k) {
+    const double a = std::numbers::pi * k / 720;
+    const Eigen::Vector2d dir(std::cos(a), std::sin(a));
+    double lo = 1e9, hi = -1e9;
+    for (const auto& p : hull) {
+      lo = std::min(lo, p.dot(dir));
+      hi = std::max(hi, p.dot(dir));
+    }
+    out.major_m = std::max(out.major_m, hi - lo);
+    out.minor_m = std::min(out.minor_m, hi - lo);
+  }
+  return out;
+}
+
+}  // namespace stemmap::sim

@@ -1,0 +1,84 @@
+#include "stemmap/sim/truth.h"
+
+#include <cmath>
+#include <numbers>
+
+#include <nlohmann/json.hpp>
+
+#include "stemmap/core/io.h"
+
+namespace stemmap::sim {
+
+namespace {
+
+constexpr double kRad2Deg = 180.0 / std::numbers::pi;
+
+nlohmann::json TreeJson(const SceneTree& t) {
+  const Stem& stem = t.stem;
+  const StemParams& p = stem.params();
+  const Eigen::Vector3d bh = stem.AxisPoint(p.s_bh_m);
+  const Stem::Section sec = stem.MeasureSection(p.s_bh_m);
+  return {{"id", t.id},
+          {"x_m", bh.x()},
+          {"y_m", bh.y()},
+          {"z_m", bh.z()},
+          {"dbh_cm", 100.0 * sec.girth_m / std::numbers::pi},
+          {"major_cm", 100.0 * sec.major_m},
+          {"minor_cm", 100.0 * sec.minor_m},
+          {"lean_deg", p.lean_rad * kRad2Deg},
+          {"lean_azimuth_deg", p.lean_azimuth_rad * kRad2Deg},
+          {"distance_m", bh.head<2>().norm()},
+          {"azimuth_deg", std::atan2(bh.y(), bh.x()) * kRad2Deg},
+          {"height_m", p.height_m}};
+}
+
+}  // namespace
+
+void WriteTruth(const std::filesystem::path& path, const Scene& scene, const PinholeCamera& camera,
+                const RigParams& rig, const std::vector<RigFrame>& frames, uint64_t seed) {
+  nlohmann::json j;
+  j["format"] = "stemmap-truth/1";
+  j["frame"] =
+      "plot frame: origin on the rotation axis at ground level, z up, x along the first "
+      "frame's horizontal viewing direction; poses are world_from_camera with OpenCV camera axes";
+  j["seed"] = seed;
+  j["kind"] = ToString(scene.kind);
+  nlohmann::json cam = camera;
+  cam["hfov_deg"] = camera.HfovDeg();
+  cam["distortion"] = {camera.k1, camera.k2, 0.0, 0.0, 0.0};
+  j["intrinsics"] = cam;
+  j["arm_radius_m"] = rig.arm_radius_m;
+  j["camera_height_m"] = rig.camera_height_m;
+  j["fps"] = rig.fps;
+  j["frame_count"] = frames.size();
+  j["rig"] = {{"turns", rig.turns},
+              {"seconds", rig.seconds},
+              {"direction", rig.direction > 0 ? "counter-clockwise" : "clockwise"},
+              {"stand_tilt_deg", rig.stand_tilt_deg},
+              {"mount_pitch_deg", rig.mount_pitch_deg},
+              {"mount_roll_deg", rig.mount_roll_deg},
+              {"mount_yaw_deg", rig.mount_yaw_deg},
+              {"wobble_m", rig.wobble_m},
+              {"wobble_deg", rig.wobble_deg}};
+  j["breast_height_m"] = kBreastHeightM;
+  j["ground_slope_deg"] = scene.ground.slope_deg();
+  const Eigen::Vector3d& s = scene.light.sun_dir_world;
+  j["sun"] = {{"elevation_deg", std::asin(s.z()) * kRad2Deg},
+              {"azimuth_deg", std::atan2(s.y(), s.x()) * kRad2Deg}};
+  j["trees"] = nlohmann::json::array();
+  j["saplings"] = nlohmann::json::array();
+  for (const SceneTree& t : scene.trees) (t.sapling ? j["saplings"] : j["trees"]).push_back(TreeJson(t));
+  j["shrubs"] = scene.shrubs.size();
+  nlohmann::json poses = nlohmann::json::array();
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const auto& q = frames[i].world_from_cam.rotation;
+    const auto& t = frames[i].world_from_cam.translation;
+    poses.push_back({{"frame", i}, {"t_s", frames[i].t_s},
+                     {"t_xyz", {t.x(), t.y(), t.z()}},
+                     {"q_xyzw", {q.x(), q.y(), q.z(), q.w()}}});
+  }
+  j["poses"] = poses;
+  WriteJsonAtomic(path, j);
+}
+
+}  // namespace stemmap::sim

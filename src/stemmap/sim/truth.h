@@ -1,0 +1,17 @@
+#pragma once
+
+#include <filesystem>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/sim/rig.h"
+#include "stemmap/sim/scene.h"
+
+namespace stemmap::sim {
+
+// Writes truth.json: intrinsics, rig, every tree's position and DBH at breast height, saplings
+// apart, and the pose of every frame. Format in docs/output-format.md.
+void WriteTruth(const std::filesystem::path& path, const Scene& scene, const PinholeCamera& camera,
+                const RigParams& rig, const std::vector<RigFrame>& frames, uint64_t seed);
+
+}  // namespace stemmap::sim

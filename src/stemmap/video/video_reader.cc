@@ -1,0 +1,189 @@
+#include "stemmap/video/video_reader.h"
+
+extern "C" {
+#include <libavcodec/avcodec.h>
+#include <libavformat/avformat.h>
+#include <libavutil/display.h>
+#include <libavutil/imgutils.h>
+#include <libswscale/swscale.h>
+}
+
+#include <cmath>
+
+#include <fmt/format.h>
+#include <opencv2/core.hpp>
+
+#include "stemmap/core/error.h"
+
+namespace stemmap {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string AvError(int ret) {
+  char buf[AV_ERROR_MAX_STRING_SIZE] = {0};
+  av_strerror(ret, buf, sizeof(buf));
+  return buf;
+}
+
+// Clockwise rotation in degrees that makes decoded frames upright.
+int DisplayRotationDeg(const AVStream* stream) {
+  const uint8_t* matrix = av_stream_get_side_data(stream, AV_PKT_DATA_DISPLAYMATRIX, nullptr);
+  if (!matrix) return 0;
+  // av_display_rotation_get gives the counter-clockwise angle the frame must be rotated by.
+  const double ccw = av_display_rotation_get(reinterpret_cast<const int32_t*>(matrix));
+  if (std::isnan(ccw)) return 0;
+  int cw = static_cast<int>(std::lround(-ccw)) % 360;
+  if (cw < 0) cw += 360;
+  return (cw + 45) / 90 * 90 % 360;
+}
+
+}  // namespace
+
+struct VideoReader::Impl {
+  fs::path path;
+  VideoReaderOptions options;
+  VideoInfo info;
+  AVFormatContext* fmt = nullptr;
+  AVCodecContext* dec = nullptr;
+  AVFrame* frame = nullptr;
+  AVPacket* packet = nullptr;
+  SwsContext* sws = nullptr;
+  int stream_index = -1;
+  int64_t decoded = 0;
+  int corrupt = 0;
+  bool flushing = false;
+  bool done = false;
+  double first_t_s = NAN;
+  int out_w = 0, out_h = 0;  // decoded-orientation output size before rotation
+
+  ~Impl() {
+    sws_freeContext(sws);
+    av_packet_free(&packet);
+    av_frame_free(&frame);
+    avcodec_free_context(&dec);
+    avformat_close_input(&fmt);
+  }
+};
+
+VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  Impl& m = *impl_;
+  m.path = path;
+  m.options = options;
+  if (!fs::exists(path)) throw InputError(fmt::format("video {} does not exist", path.string()));
+  int ret = avformat_open_input(&m.fmt, path.c_str(), nullptr, nullptr);
+  if (ret < 0) {
+    throw InputError(fmt::format("cannot open video {}: {}", path.string(), AvError(ret)));
+  }
+  ret = avformat_find_stream_info(m.fmt, nullptr);
+  if (ret < 0) {
+    throw InputError(fmt::format("cannot read video {}: {}", path.string(), AvError(ret)));
+  }
+  const AVCodec* codec = nullptr;
+  m.stream_index = av_find_best_stream(m.fmt, AVMEDIA_TYPE_VIDEO, -1, -1, &codec, 0);
+  if (m.stream_index < 0 || !codec) {
+    throw InputError(fmt::format("{} holds no decodable video stream", path.string()));
+  }
+  AVStream* stream = m.fmt->streams[m.stream_index];
+  m.dec = avcodec_alloc_context3(codec);
+  avcodec_parameters_to_context(m.dec, stream->codecpar);
+  m.dec->thread_count = options.threads;
+  ret = avcodec_open2(m.dec, codec, nullptr);
+  if (ret < 0) {
+    throw InputError(fmt::format("cannot decode {}: {}", path.string(), AvError(ret)));
+  }
+  if (m.dec->width <= 0 || m.dec->height <= 0) {
+    throw InputError(fmt::format("{} has no frame size", path.string()));
+  }
+
+  m.info.codec = codec->name;
+  m.info.rotation_deg = DisplayRotationDeg(stream);
+  const AVRational rate = stream->avg_frame_rate.num > 0 ? stream->avg_frame_rate
+                                                         : stream->r_frame_rate;
+  m.info.fps = rate.num > 0 && rate.den > 0 ? av_q2d(rate) : 0.0;
+  if (stream->duration > 0) {
+    m.info.duration_s = stream->duration * av_q2d(stream->time_base);
+  } else if (m.fmt->duration > 0) {
+    m.info.duration_s = m.fmt->duration / static_cast<double>(AV_TIME_BASE);
+  }
+  m.info.frame_count = stream->nb_frames;
+  double scale = 1.0;
+  const int long_side = std::max(m.dec->width, m.dec->height);
+  if (options.max_long_side_px > 0 && long_side > options.max_long_side_px) {
+    scale = static_cast<double>(options.max_long_side_px) / long_side;
+  }
+  m.out_w = std::max(2, static_cast<int>(std::lround(m.dec->width * scale)));
+  m.out_h = std::max(2, static_cast<int>(std::lround(m.dec->height * scale)));
+  const bool swap = m.info.rotation_deg == 90 || m.info.rotation_deg == 270;
+  m.info.width = swap ? m.out_h : m.out_w;
+  m.info.height = swap ? m.out_w : m.out_h;
+  m.frame = av_frame_alloc();
+  m.packet = av_packet_alloc();
+}
+
+VideoReader::~VideoReader() = default;
+
+const VideoInfo& VideoReader::info() const { return impl_->info; }
+int VideoReader::corrupt_packets() const { return impl_->corrupt; }
+
+std::optional<DecodedFrame> VideoReader::Next() {
+  Impl& m = *impl_;
+  while (!m.done) {
+    int ret = avcodec_receive_frame(m.dec, m.frame);
+    if (ret == 0) {
+      // Frames whose size changes mid-stream are rescaled to the first size.
+      m.sws = sws_getCachedContext(m.sws, m.frame->width, m.frame->height,
+                                   static_cast<AVPixelFormat>(m.frame->format), m.out_w, m.out_h,
+                                   AV_PIX_FMT_BGR24, SWS_AREA, nullptr, nullptr, nullptr);
+      if (!m.sws) throw ProcessingError("cannot convert decoded frames to BGR");
+      cv::Mat bgr(m.out_h, m.out_w, CV_8UC3);
+      uint8_t* dst[1] = {bgr.data};
+      const int dst_stride[1] = {static_cast<int>(bgr.step[0])};
+      sws_scale(m.sws, m.frame->data, m.frame->linesize, 0, m.frame->height, dst, dst_stride);
+      const AVStream* stream = m.fmt->streams[m.stream_index];
+      const int64_t pts = m.frame->best_effort_timestamp;
+      double t_s = pts == AV_NOPTS_VALUE
+                       ? (m.info.fps > 0 ? m.decoded / m.info.fps : static_cast<double>(m.decoded))
+                       : pts * av_q2d(stream->time_base);
+      if (std::isnan(m.first_t_s)) m.first_t_s = t_s;
+      t_s -= m.first_t_s;
+      av_frame_unref(m.frame);
+      DecodedFrame out;
+      out.index = m.decoded++;
+      out.t_s = t_s;
+      switch (m.info.rotation_deg) {
+        case 90: cv::rotate(bgr, out.bgr, cv::ROTATE_90_CLOCKWISE); break;
+        case 180: cv::rotate(bgr, out.bgr, cv::ROTATE_180); break;
+        case 270: cv::rotate(bgr, out.bgr, cv::ROTATE_90_COUNTERCLOCKWISE); break;
+        default: out.bgr = bgr;
+      }
+      return out;
+    }
+    if (ret == AVERROR_EOF) {
+      m.done = true;
+      break;
+    }
+    if (ret != AVERROR(EAGAIN)) {
+      ++m.corrupt;  // a frame the decoder could not produce; go on with the next packet
+    }
+    if (m.flushing) {
+      if (ret == AVERROR(EAGAIN)) m.done = true;
+      continue;
+    }
+    ret = av_read_frame(m.fmt, m.packet);
+    if (ret < 0) {
+      m.flushing = true;
+      avcodec_send_packet(m.dec, nullptr);
+      continue;
+    }
+    if (m.packet->stream_index == m.stream_index) {
+      if (avcodec_send_packet(m.dec, m.packet) < 0) ++m.corrupt;
+    }
+    av_packet_unref(m.packet);
+  }
+  return std::nullopt;
+}
+
+}  // namespace stemmap

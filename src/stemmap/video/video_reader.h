@@ -1,0 +1,54 @@
+#pragma once
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include <opencv2/core.hpp>
+
+namespace stemmap {
+
+// What the container says about a video, before any frame is decoded.
+struct VideoInfo {
+  int width = 0;   // after the display rotation is applied
+  int height = 0;
+  double fps = 0.0;       // average frame rate
+  double duration_s = 0.0;
+  int64_t frame_count = 0;  // container's estimate; may be 0 when unknown
+  int rotation_deg = 0;     // clockwise rotation applied to decoded frames (0, 90, 180, 270)
+  std::string codec;
+};
+
+struct DecodedFrame {
+  int64_t index = 0;  // 0-based order of decoding
+  double t_s = 0.0;   // presentation time from the stream, relative to the first frame
+  cv::Mat bgr;        // CV_8UC3, rotated upright, scaled to the requested size
+};
+
+struct VideoReaderOptions {
+  // Resize so the longer side is at most this many pixels (0 = keep the full resolution).
+  int max_long_side_px = 0;
+  int threads = 2;
+};
+
+// Decodes a video file (any codec and container FFmpeg reads: H.264/HEVC in mp4/mov, ...) to BGR
+// frames in display orientation. Throws InputError when the file cannot be opened or holds no
+// video stream. Corrupt packets are skipped and counted.
+class VideoReader {
+ public:
+  VideoReader(const std::filesystem::path& path, const VideoReaderOptions& options = {});
+  ~VideoReader();
+  VideoReader(const VideoReader&) = delete;
+  VideoReader& operator=(const VideoReader&) = delete;
+
+  const VideoInfo& info() const;
+  // The next frame, or nullopt at the end of the stream.
+  std::optional<DecodedFrame> Next();
+  int corrupt_packets() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace stemmap
