@@ -1,5 +1,7 @@
 #pragma once
 
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "stemmap/core/noise.h"
@@ -14,7 +16,7 @@ class Ground {
   // slope_deg: steepest slope of the plane, toward `downhill_azimuth_rad`.
   // unevenness_m: amplitude of the bumps; wavelength_m: their size.
   Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_m, double wavelength_m,
-         uint64_t seed);
+         uint64_t seed, double extent_m = 60.0);
 
   double Height(double x, double y) const;
   Eigen::Vector2d Gradient(double x, double y) const;
@@ -31,6 +33,12 @@ class Ground {
 
  private:
   double Raw(double x, double y) const;
+  double Bump(double x, double y) const;  // unevenness only, from the table where it covers
+  // The unevenness is tabulated (bilinear, fine enough that it matches the noise to < 1 mm),
+  // since the renderer evaluates it millions of times per frame.
+  std::vector<float> bump_table_;
+  int table_n_ = 0;
+  double table_step_m_ = 0.1, table_origin_m_ = 0.0;
   Eigen::Vector2d plane_gradient_ = Eigen::Vector2d::Zero();
   double unevenness_m_ = 0.0;
   double wavelength_m_ = 1.0;

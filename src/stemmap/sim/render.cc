@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 
 #include "stemmap/core/error.h"
+#include "stemmap/core/rng.h"
 
 namespace stemmap::sim {
 
@@ -36,7 +37,8 @@ Renderer::Renderer(const Scene& scene, const PinholeCamera& camera, const Render
       options_(options),
       ground_noise_(scene.light.seed ^ 0x1111),
       canopy_noise_(scene.light.seed ^ 0x2222),
-      wall_noise_(scene.light.seed ^ 0x3333) {
+      wall_noise_(scene.light.seed ^ 0x3333),
+      leaf_noise_(scene.light.seed ^ 0x4444) {
   camera.Check();
   options.Check();
   wall_radius_m_ = scene.scene_radius_m + 6.0;
@@ -240,14 +242,19 @@ bool Renderer::IntersectShrub(int k, const Eigen::Vector3d& o, const Eigen::Vect
   double t0 = std::max((-b - sq) / a, 1e-3);
   const double t1 = std::min((-b + sq) / a, t_max);
   if (t0 >= t1) return false;
-  const ValueNoise leaf(sh.seed);
+  const ValueNoise& leaf = leaf_noise_;
+  // Each shrub reads its own region of the shared noise.
+  const Eigen::Vector3d off(HashToUnit(sh.seed) * 300.0, HashToUnit(Mix64(sh.seed)) * 300.0, 0.0);
   const double th = 1.05 - 0.6 * sh.density;
-  const double step = 0.035;
+  const double step = 0.045;
+  // Lobed outline: the leaf threshold varies across the shrub at the scale of branches.
+  const Eigen::Vector3d pe = o + t0 * d + off;
+  const double lobes = 0.5 * leaf.Noise3(pe.x() * 2.5 + 50.0, pe.y() * 2.5, pe.z() * 2.5);
   for (double t = t0; t < t1; t += step) {
-    const Eigen::Vector3d p = o + t * d;
-    const Eigen::Vector3d q = (p - sh.centre).cwiseQuotient(sh.radii_m);
+    const Eigen::Vector3d pw = o + t * d;
+    const Eigen::Vector3d q = (pw - sh.centre).cwiseQuotient(sh.radii_m);
+    const Eigen::Vector3d p = pw + off;
     // Denser towards the centre, with leaf-sized holes.
-    const double lobes = 0.5 * leaf.Noise3(p.x() * 2.5 + 50.0, p.y() * 2.5, p.z() * 2.5);
     const double v = leaf.Noise3(p.x() * 18.0, p.y() * 18.0, p.z() * 18.0) +
                      0.6 * (1.0 - q.norm()) + lobes - 0.2;
     if (v > th) {

@@ -68,7 +68,7 @@ class Renderer {
   cv::Mat shadow_depth_;
   double shadow_origin_x_ = 0.0, shadow_origin_y_ = 0.0;
   double wall_radius_m_ = 45.0;
-  ValueNoise ground_noise_, canopy_noise_, wall_noise_;
+  ValueNoise ground_noise_, canopy_noise_, wall_noise_, leaf_noise_;
 };
 
 }  // namespace stemmap::sim

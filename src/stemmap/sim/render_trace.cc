@@ -103,7 +103,7 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
     const double tc0 = (L.canopy_base_m - o.z()) / d.z();
     if (tc0 < t_end) {
       const double tc1 = std::min(t_end, (L.canopy_top_m - o.z()) / d.z());
-      const double step = std::max(1.0 / d.z(), 1.0);
+      const double step = std::max(1.3 / d.z(), 1.3);
       const double th = (L.canopy_cover - 0.5) * -0.8;
       const Eigen::Vector3f leaf = Eigen::Vector3f(0.018f, 0.034f, 0.012f)
                                        .cwiseProduct(L.sky_rgb * 1.3f + L.sun_rgb * 0.15f);
@@ -232,12 +232,16 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
     for (int u = 0; u < w; ++u) {
       const int id0 = ids.at<int>(v, u);
       const float d0 = depth0.at<float>(v, u);
+      // Only stem silhouettes need sub-pixel accuracy; leaves, ground and sky edges do not.
       bool edge = false;
       for (const auto& [du, dv] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
         const int uu = u + du, vv = v + dv;
         if (uu < 0 || vv < 0 || uu >= w || vv >= h) continue;
-        const float d1 = depth0.at<float>(vv, uu);
-        if (ids.at<int>(vv, uu) != id0 || std::abs(d1 - d0) > 0.04f * std::min(d0, d1)) {
+        const int id1 = ids.at<int>(vv, uu);
+        const bool stem0 = id0 >= kObjTree && id0 < kObjShrub;
+        const bool stem1 = id1 >= kObjTree && id1 < kObjShrub;
+        if ((stem0 || stem1) && (id1 != id0 || std::abs(depth0.at<float>(vv, uu) - d0) >
+                                                   0.04f * std::min(d0, depth0.at<float>(vv, uu)))) {
           edge = true;
           break;
         }

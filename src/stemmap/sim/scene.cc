@@ -162,7 +162,7 @@ Scene GenerateScene(const SceneOptions& o) {
   scene.ground = Ground(natural ? rng.Uniform(2.0, 8.0) : rng.Uniform(0.0, 3.0),
                         rng.Uniform(0, 2 * std::numbers::pi),
                         natural ? rng.Uniform(0.08, 0.18) : rng.Uniform(0.03, 0.07),
-                        natural ? 3.5 : 5.0, rng.NextU64());
+                        natural ? 3.5 : 5.0, rng.NextU64(), o.scene_radius_m + 15.0);
 
   std::vector<Placed> placed;
   double r_fill = 0.0;

@@ -58,8 +58,11 @@ Stem::Stem(const StemParams& p) : p_(p), noise_(p.seed) {
 }
 
 double Stem::MeanRadius(double s) const {
-  const double r = p_.radius_bh_m + p_.taper_m_per_m * (p_.s_bh_m - s) +
-                   p_.radius_bh_m * p_.flare * std::exp(-std::max(s, 0.0) / p_.flare_height_m);
+  double r = p_.radius_bh_m + p_.taper_m_per_m * (p_.s_bh_m - s);
+  // The flare has vanished (< 1e-7 of the radius) well above the ground.
+  if (s < 16.0 * p_.flare_height_m) {
+    r += p_.radius_bh_m * p_.flare * std::exp(-std::max(s, 0.0) / p_.flare_height_m);
+  }
   return std::max(r, 0.01);
 }
 
@@ -74,7 +77,7 @@ double Stem::TurnFraction(double x, double y) {
 
 double Stem::Relief(double u, double s) const {
   // Furrows wander: a smooth, azimuth-periodic warp of the plate coordinate.
-  const double warp = 0.9 * noise_.Fbm2PeriodicX(u * 4.0, 0.7 * s, 4, 2);
+  const double warp = 0.8 * noise_.Noise2PeriodicX(u * 5.0, 0.8 * s, 5);
   const double uf = u * n_furrows_ + warp;
   const double cell = uf - std::floor(uf);
   const double d_furrow = std::min(cell, 1.0 - cell);
@@ -225,17 +228,17 @@ double Stem::EnvelopeEntry(const Eigen::Vector3d& o, const Eigen::Vector3d& d) c
 Eigen::Vector3f Stem::Albedo(double u, double s) const {
   const double relief = Relief(u, s);
   const double furrow = std::clamp(-relief / std::max(p_.furrow_depth_m, 1e-4), 0.0, 1.0);
-  const double tint = 1.0 + 0.22 * noise_.Fbm2PeriodicX(u * 8.0, 3.0 * s, 8, 3);
+  const double tint = 1.0 + 0.22 * noise_.Fbm2PeriodicX(u * 8.0, 3.0 * s, 8, 2);
   Eigen::Vector3f rgb = p_.bark_rgb * static_cast<float>(tint * (1.0 - 0.65 * furrow));
   // Pale lichen patches, more on plates than in furrows.
-  const double l = noise_.Fbm2PeriodicX(u * 14.0, 5.0 * s + 40.0, 14, 3);
+  const double l = noise_.Fbm2PeriodicX(u * 14.0, 5.0 * s + 40.0, 14, 2);
   const double lichen_cover = std::clamp((l - (0.55 - 0.8 * p_.lichen)) * 6.0, 0.0, 1.0) *
                               (1.0 - 0.5 * furrow);
   rgb = rgb * (1.0f - static_cast<float>(lichen_cover)) +
         Eigen::Vector3f(0.52f, 0.55f, 0.48f) * static_cast<float>(lichen_cover);
   // Moss around the base, patchy.
   if (s < 0.8 && p_.moss > 0) {
-    const double m = noise_.Fbm2PeriodicX(u * 6.0, 2.0 * s + 80.0, 6, 2);
+    const double m = noise_.Noise2PeriodicX(u * 6.0, 2.0 * s + 80.0, 6);
     const double moss_cover =
         std::clamp((m + p_.moss - 0.3) * 3.0, 0.0, 1.0) * std::clamp((0.8 - s) / 0.5, 0.0, 1.0);
     rgb = rgb * (1.0f - static_cast<float>(moss_cover)) +
