@@ -1,0 +1,130 @@
+#include "stemmap/eval/evaluate.h"
+
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+#include "stemmap/core/error.h"
+#include "stemmap/core/io.h"
+#include "stemmap/core/rng.h"
+#include "stemmap/eval/hungarian.h"
+
+namespace stemmap::eval {
+namespace {
+
+// A synthetic plot: 30 trees scattered to 14 m, DBH 10-50 cm.
+TruthPlot MakeTruth() {
+  TruthPlot t;
+  Rng rng(3);
+  for (int i = 0; i < 30; ++i) {
+    const double r = rng.Uniform(2.0, 14.0), a = rng.Uniform(0, 6.283);
+    t.trees.push_back({i + 1, r * std::cos(a), r * std::sin(a), rng.Uniform(10, 50), 0, ""});
+  }
+  return t;
+}
+
+TEST(Hungarian, FindsTheCheapestAssignment) {
+  const std::vector<std::vector<double>> cost = {{4, 1, 3}, {2, 0, 5}, {3, 2, 2}};
+  const auto m = SolveAssignment(cost, 100);
+  EXPECT_EQ(m, (std::vector<int>{1, 0, 2}));
+  // Forbidden pairs stay unassigned; rectangular input works.
+  const auto m2 = SolveAssignment({{0.1, 9.0}, {9.0, 9.0}, {9.0, 0.2}}, 1.0);
+  EXPECT_EQ(m2, (std::vector<int>{0, -1, 1}));
+}
+
+TEST(Evaluate, PerfectPredictionScoresZeroErrorAndFullRecall) {
+  const TruthPlot truth = MakeTruth();
+  const Evaluation e = Evaluate({}, truth, truth.trees, nullptr);
+  EXPECT_GT(e.raw.n_truth, 10);
+  EXPECT_DOUBLE_EQ(e.raw.recall, 1.0);
+  EXPECT_DOUBLE_EQ(e.raw.precision, 1.0);
+  EXPECT_DOUBLE_EQ(e.raw.dbh.mae_cm, 0.0);
+  EXPECT_DOUBLE_EQ(e.raw.position_rmse_m, 0.0);
+  EXPECT_NEAR(e.yaw_deg, 0.0, 1e-9);
+}
+
+TEST(Evaluate, ConstantOffsetIsAllBias) {
+  const TruthPlot truth = MakeTruth();
+  auto pred = truth.trees;
+  for (auto& p : pred) p.dbh_cm += 2.0;
+  const Evaluation e = Evaluate({}, truth, pred, nullptr);
+  EXPECT_NEAR(e.raw.dbh.bias_cm, 2.0, 1e-12);
+  EXPECT_NEAR(e.raw.dbh.mae_cm, 2.0, 1e-12);
+  EXPECT_NEAR(e.raw.dbh.rmse_cm, 2.0, 1e-12);
+  EXPECT_NEAR(e.raw.dbh.sd_cm, 0.0, 1e-6);
+  EXPECT_NEAR(e.raw.dbh.share_2to3_pct, 100.0, 1e-9);
+  EXPECT_NE(e.ToMarkdown().find("+2.00"), std::string::npos);
+}
+
+TEST(Evaluate, YawAlignmentRecoversARotatedPlot) {
+  const TruthPlot truth = MakeTruth();
+  const auto pred = RotatedAboutOrigin(truth.trees, 30.0);
+  const Evaluation e = Evaluate({}, truth, pred, nullptr);
+  EXPECT_LT(e.raw.recall, 0.3);
+  EXPECT_NEAR(e.yaw_deg, -30.0, 1e-6);
+  EXPECT_DOUBLE_EQ(e.yaw_aligned.recall, 1.0);
+  EXPECT_NEAR(e.yaw_aligned.position_rmse_m, 0.0, 1e-6);
+}
+
+TEST(Evaluate, MissingAndExtraTreesLowerRecallAndPrecision) {
+  const TruthPlot truth = MakeTruth();
+  auto pred = truth.trees;
+  // Drop the nearest in-plot tree, add a phantom at 5 m.
+  auto nearest = std::min_element(pred.begin(), pred.end(), [](const auto& a, const auto& b) {
+    return a.DistanceM() < b.DistanceM();
+  });
+  const int missing_id = nearest->id;
+  pred.erase(nearest);
+  pred.push_back({999, 0.0, 5.0, 30.0, 0, ""});
+  const Evaluation e = Evaluate({}, truth, pred, nullptr);
+  EXPECT_EQ(e.raw.n_matched, e.raw.n_truth - 1);
+  EXPECT_NEAR(e.raw.recall, (e.raw.n_truth - 1.0) / e.raw.n_truth, 1e-12);
+  EXPECT_LT(e.raw.precision, 1.0);
+  EXPECT_EQ(e.raw.missed_truth_ids, std::vector<int>{missing_id});
+  EXPECT_EQ(e.raw.false_prediction_ids, std::vector<int>{999});
+}
+
+TEST(Evaluate, PlotRadiusAndThresholdSelectScoredTrees) {
+  TruthPlot truth;
+  truth.trees = {{1, 3, 0, 30, 0, ""}, {2, 12, 0, 30, 0, ""}, {3, 0, 4, 5, 0, ""}};
+  const Evaluation e = Evaluate({}, truth, truth.trees, nullptr);
+  EXPECT_EQ(e.raw.n_truth, 1);  // tree 2 is outside 10 m, tree 3 below 7 cm
+  EXPECT_EQ(e.raw.n_predicted, 1);
+}
+
+TEST(Evaluate, TrajectoryAteScaleAndYaw) {
+  TruthPlot truth = MakeTruth();
+  std::vector<StampedPose> est;
+  const double yaw = 0.2;
+  const Eigen::Quaterniond rz(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  for (int i = 0; i < 100; ++i) {
+    const double th = i * 0.0628;
+    Rigid3d p{Eigen::Quaterniond(Eigen::AngleAxisd(th, Eigen::Vector3d::UnitZ())),
+              Eigen::Vector3d(std::cos(th), std::sin(th), 1.3)};
+    truth.poses.push_back({i / 30.0, p});
+    // Estimate: 1% too large and rotated by -yaw.
+    est.push_back({i / 30.0, {rz.conjugate() * p.rotation, rz.conjugate() * (1.01 * p.translation)}});
+  }
+  const Evaluation e = Evaluate({}, truth, truth.trees, &est);
+  ASSERT_TRUE(e.has_trajectory);
+  EXPECT_EQ(e.trajectory.n_poses, 100);
+  EXPECT_NEAR(e.trajectory.yaw_deg, yaw * 180 / M_PI, 1e-6);
+  EXPECT_NEAR(e.trajectory.scale_error_pct, 1.0, 1e-6);
+  EXPECT_NEAR(e.trajectory.ate_rmse_m, 0.01 * std::hypot(1.0, 1.3), 1e-6);
+  EXPECT_NEAR(e.trajectory.max_rotation_error_deg, 0.0, 1e-6);
+}
+
+TEST(PlotIo, TreesCsvErrorsAreClear) {
+  const auto dir = std::filesystem::temp_directory_path() / "stemmap_eval_test";
+  WriteFileAtomic(dir / "bad.csv", "a,b\n1,2\n");
+  EXPECT_THROW(ReadTreesCsv(dir / "bad.csv"), InputError);
+  WriteFileAtomic(dir / "ok.csv", "tree_id,x_m,y_m,z_m,dbh_cm,dbh_sd_cm\n1,2.0,3.0,1.3,25.5,0.4\n");
+  const auto t = ReadTreesCsv(dir / "ok.csv");
+  ASSERT_EQ(t.size(), 1u);
+  EXPECT_DOUBLE_EQ(t[0].dbh_cm, 25.5);
+  WriteFileAtomic(dir / "nan.csv", "x_m,y_m,dbh_cm\n1,x,3\n");
+  EXPECT_THROW(ReadTreesCsv(dir / "nan.csv"), InputError);
+}
+
+}  // namespace
+}  // namespace stemmap::eval
