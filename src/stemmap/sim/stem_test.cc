@@ -1,1 +1,62 @@
+#include "stemmap/sim/stem.h"
+
+#include <numbers>
+
 #include <gtest/gtest.h>
+
+namespace stemmap::sim {
+namespace {
+
+StemParams SmoothStem(double radius_m) {
+  StemParams p;
+  p.radius_bh_m = radius_m;
+  p.furrow_depth_m = 0.0;
+  p.flare = 0.0;
+  p.axis_ratio = 1.0;
+  return p;
+}
+
+TEST(Stem, SmoothRoundStemGirthIsTheCircle) {
+  const Stem stem(SmoothStem(0.15));
+  const Stem::Section s = stem.MeasureSection(1.37);
+  EXPECT_NEAR(s.girth_m / std::numbers::pi, 0.30, 1e-5);
+  EXPECT_NEAR(s.major_m, 0.30, 1e-5);
+  EXPECT_NEAR(s.minor_m, 0.30, 1e-5);
+}
+
+TEST(Stem, EllipseKeepsMeanDiameterAndFurrowsDoNotChangeTheTapeGirth) {
+  StemParams p = SmoothStem(0.2);
+  p.axis_ratio = 0.9;
+  const Stem::Section e = Stem(p).MeasureSection(1.37);
+  EXPECT_NEAR(e.major_m / e.minor_m, 1.0 / 0.9, 1e-3);
+  EXPECT_NEAR(0.5 * (e.major_m + e.minor_m), 0.4, 1e-4);
+  p.furrow_depth_m = 0.006;
+  const Stem::Section f = Stem(p).MeasureSection(1.37);
+  // A tape spans the furrows: girth changes by far less than the furrow depth.
+  EXPECT_NEAR(f.girth_m, e.girth_m, 0.002);
+}
+
+TEST(Stem, RayHitsTheSurfaceAndMissesBeside) {
+  StemParams p = SmoothStem(0.15);
+  p.base_world = {5.0, 0.0, 0.0};
+  const Stem stem(p);
+  const auto hit = stem.Intersect({0, 0, 1.3}, {1, 0, 0}, 0.0, 100.0);
+  ASSERT_TRUE(hit.has_value());
+  EXPECT_NEAR(hit->t, 4.85, 1e-3);
+  EXPECT_NEAR(hit->normal_world.x(), -1.0, 1e-2);
+  const Eigen::Vector3d beside = Eigen::Vector3d(5.0, 0.16, 0.0).normalized();
+  EXPECT_FALSE(stem.Intersect({0, 0, 1.3}, beside, 0.0, 100.0).has_value());
+  const Eigen::Vector3d grazing = Eigen::Vector3d(5.0, 0.145, 0.0).normalized();
+  EXPECT_TRUE(stem.Intersect({0, 0, 1.3}, grazing, 0.0, 100.0).has_value());
+}
+
+TEST(Stem, LeaningAxisMovesTheBreastHeightPoint) {
+  StemParams p = SmoothStem(0.15);
+  p.lean_rad = 0.05;
+  p.lean_azimuth_rad = 0.0;
+  const Stem stem(p);
+  EXPECT_NEAR(stem.AxisPoint(1.37).x(), 1.37 * std::sin(0.05), 1e-12);
+}
+
+}  // namespace
+}  // namespace stemmap::sim

@@ -104,6 +104,9 @@ VideoWriter::VideoWriter(const fs::path& path, const VideoWriterOptions& options
   if (m.fmt->oformat->flags & AVFMT_GLOBALHEADER) m.enc->flags |= AV_CODEC_FLAG_GLOBAL_HEADER;
   if (std::string(codec->name) == "libx264") {
     av_opt_set(m.enc->priv_data, "preset", "veryfast", 0);
+    // Frame threads make x264's rate control depend on timing; slice threads keep the output
+    // identical from run to run.
+    av_opt_set(m.enc->priv_data, "x264-params", "sliced-threads=1", 0);
   }
   m.Check(avcodec_open2(m.enc, codec, nullptr), "open encoder");
   m.Check(avcodec_parameters_from_context(m.stream->codecpar, m.enc), "stream parameters");
