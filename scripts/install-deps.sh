@@ -3,7 +3,7 @@
 set -euo pipefail
 
 packages=(
-  build-essential cmake ninja-build pkg-config clang-format
+  build-essential cmake ninja-build pkg-config clang-format python3
   libopencv-dev libeigen3-dev libceres-dev
   libavcodec-dev libavformat-dev libavutil-dev libswscale-dev ffmpeg
   libnanoflann-dev libcli11-dev libfmt-dev libspdlog-dev nlohmann-json3-dev

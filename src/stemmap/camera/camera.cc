@@ -1,10 +1,10 @@
 #include "stemmap/camera/camera.h"
 
-#include <cmath>
-#include <numbers>
-
 #include <fmt/format.h>
+
+#include <cmath>
 #include <nlohmann/json.hpp>
+#include <numbers>
 
 #include "stemmap/core/error.h"
 

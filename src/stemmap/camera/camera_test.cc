@@ -1,6 +1,7 @@
 #include "stemmap/camera/camera.h"
 
 #include <gtest/gtest.h>
+
 #include <nlohmann/json.hpp>
 
 #include "stemmap/core/error.h"

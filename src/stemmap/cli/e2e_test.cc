@@ -1,7 +1,7 @@
 // End to end: simulate a short plot, decode it, and score the truth against itself.
-#include <filesystem>
-
 #include <gtest/gtest.h>
+
+#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "stemmap/core/io.h"
@@ -53,8 +53,8 @@ TEST(EndToEnd, SimulateDecodeEvaluate) {
   // The truth written as a tree list scores perfectly, trajectory included.
   std::string csv = "tree_id,x_m,y_m,z_m,dbh_cm,dbh_sd_cm,distance_m,azimuth_deg,n_views,flags\n";
   for (const auto& t : truth["trees"]) {
-    csv += std::to_string(t["id"].get<int>()) + "," + std::to_string(t["x_m"].get<double>()) +
-           "," + std::to_string(t["y_m"].get<double>()) + ",0," +
+    csv += std::to_string(t["id"].get<int>()) + "," + std::to_string(t["x_m"].get<double>()) + "," +
+           std::to_string(t["y_m"].get<double>()) + ",0," +
            std::to_string(t["dbh_cm"].get<double>()) + ",0,0,0,0,\n";
   }
   WriteFileAtomic(dir / "trees.csv", csv);

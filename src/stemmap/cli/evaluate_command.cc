@@ -1,6 +1,6 @@
-#include <memory>
-
 #include <fmt/format.h>
+
+#include <memory>
 
 #include "stemmap/cli/commands.h"
 #include "stemmap/eval/evaluate.h"

@@ -1,11 +1,11 @@
 // stemmap: one binary, one subcommand per stage. Each subcommand parses its options and calls a
 // typed Run function from a library; errors reach main() as exceptions and leave as one line.
-#include <cstdio>
-#include <exception>
-
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
+#include <cstdio>
+#include <exception>
 
 #include "stemmap/cli/commands.h"
 #include "stemmap/core/error.h"

@@ -1,7 +1,7 @@
-#include <memory>
-
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
+
+#include <memory>
 
 #include "stemmap/cli/commands.h"
 #include "stemmap/sim/simulate.h"
@@ -31,7 +31,8 @@ void AddSimulateCommand(CLI::App& app) {
   sub->add_option("--turns", opt->turns, "Arm turns over the clip (default: 1.05-1.15)");
   sub->add_option("--arm-radius", opt->arm_radius_m, "Arm length (m)")->capture_default_str();
   sub->add_option("--hfov", opt->hfov_deg, "Horizontal field of view (deg, default: 60-75)");
-  sub->add_option("--k1", opt->k1, "Radial distortion of the simulated lens")->capture_default_str();
+  sub->add_option("--k1", opt->k1, "Radial distortion of the simulated lens")
+      ->capture_default_str();
   sub->add_option("--bitrate", opt->bitrate_mbps, "H.264 bitrate (Mbit/s, default: phone-like)");
   sub->add_option("--layout", opt->layout_csv, "Stem map CSV with x, y, dbh (cm) columns")
       ->check(CLI::ExistingFile);

@@ -1,12 +1,11 @@
 #include "stemmap/core/io.h"
 
+#include <fmt/format.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <fstream>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "stemmap/core/error.h"
 

@@ -1,8 +1,8 @@
 #include "stemmap/core/io.h"
 
-#include <filesystem>
-
 #include <gtest/gtest.h>
+
+#include <filesystem>
 
 #include "stemmap/core/error.h"
 
@@ -12,7 +12,8 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TestDir() {
-  const fs::path dir = fs::temp_directory_path() / ("stemmap_io_test_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("stemmap_io_test_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   return dir;
 }

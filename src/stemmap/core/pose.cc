@@ -1,8 +1,8 @@
 #include "stemmap/core/pose.h"
 
-#include <sstream>
-
 #include <fmt/format.h>
+
+#include <sstream>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"

@@ -1,10 +1,9 @@
 #pragma once
 
-#include <filesystem>
-#include <vector>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <filesystem>
+#include <vector>
 
 namespace stemmap {
 
@@ -32,7 +31,8 @@ struct StampedPose {
 
 // TUM format: `t tx ty tz qx qy qz qw` per line, world_from_camera. Written atomically.
 void WriteTumTrajectory(const std::filesystem::path& path, const std::vector<StampedPose>& poses);
-// Throws InputError naming the file and line on malformed input. Lines starting with '#' are skipped.
+// Throws InputError naming the file and line on malformed input. Lines starting with '#' are
+// skipped.
 std::vector<StampedPose> ReadTumTrajectory(const std::filesystem::path& path);
 
 }  // namespace stemmap

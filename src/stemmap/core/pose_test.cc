@@ -1,8 +1,8 @@
 #include "stemmap/core/pose.h"
 
-#include <filesystem>
-
 #include <gtest/gtest.h>
+
+#include <filesystem>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -32,8 +32,8 @@ TEST(Pose, TumRoundTripAndErrors) {
   ASSERT_EQ(back.size(), poses.size());
   for (size_t i = 0; i < poses.size(); ++i) {
     EXPECT_NEAR(back[i].t_s, poses[i].t_s, 1e-6);
-    EXPECT_TRUE(back[i].world_from_cam.translation.isApprox(poses[i].world_from_cam.translation,
-                                                            1e-6));
+    EXPECT_TRUE(
+        back[i].world_from_cam.translation.isApprox(poses[i].world_from_cam.translation, 1e-6));
     EXPECT_NEAR(back[i].world_from_cam.rotation.angularDistance(poses[i].world_from_cam.rotation),
                 0.0, 1e-7);
   }

@@ -1,10 +1,10 @@
 #include "stemmap/eval/evaluate.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-
-#include <fmt/format.h>
 
 #include "stemmap/core/error.h"
 #include "stemmap/eval/hungarian.h"
@@ -27,9 +27,12 @@ DbhStats ComputeDbhStats(const std::vector<std::pair<double, double>>& pred_trut
     sum_abs += std::abs(e);
     sum_sq += e * e;
     sum_rel += std::abs(e) / t;
-    if (std::abs(e) < 1) ++lt1;
-    else if (std::abs(e) < 2) ++lt2;
-    else if (std::abs(e) < 3) ++lt3;
+    if (std::abs(e) < 1)
+      ++lt1;
+    else if (std::abs(e) < 2)
+      ++lt2;
+    else if (std::abs(e) < 3)
+      ++lt3;
   }
   const double n = s.n;
   s.bias_cm = sum / n;

@@ -1,19 +1,18 @@
 #pragma once
 
 #include <filesystem>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json_fwd.hpp>
 
 #include "stemmap/eval/plot_io.h"
 
 namespace stemmap::eval {
 
 struct EvaluateOptions {
-  double plot_radius_m = 10.0;   // trees farther from the centre are not scored
-  double min_dbh_cm = 7.0;       // inventory threshold
-  double match_radius_m = 0.5;   // a prediction matches a tree within this horizontal distance
+  double plot_radius_m = 10.0;  // trees farther from the centre are not scored
+  double min_dbh_cm = 7.0;      // inventory threshold
+  double match_radius_m = 0.5;  // a prediction matches a tree within this horizontal distance
   void Check() const;
 };
 
@@ -25,8 +24,8 @@ struct DbhStats {
 };
 
 struct MatchStats {
-  int n_truth = 0;        // truth trees in the plot above the threshold
-  int n_predicted = 0;    // predictions that count (in the plot, or matched to a scored tree)
+  int n_truth = 0;      // truth trees in the plot above the threshold
+  int n_predicted = 0;  // predictions that count (in the plot, or matched to a scored tree)
   int n_matched = 0;
   double recall = 0, precision = 0;
   double position_rmse_m = 0, position_mean_m = 0;
@@ -36,17 +35,17 @@ struct MatchStats {
 };
 
 struct TrajectoryStats {
-  int n_poses = 0;          // matched by timestamp
-  double ate_rmse_m = 0;    // after a yaw-only rotation about the vertical axis through the origin
+  int n_poses = 0;        // matched by timestamp
+  double ate_rmse_m = 0;  // after a yaw-only rotation about the vertical axis through the origin
   double scale_error_pct = 0;  // least-squares size of the aligned estimate over the truth, - 1
   double yaw_deg = 0;
   double max_rotation_error_deg = 0, mean_rotation_error_deg = 0;
 };
 
 struct Evaluation {
-  MatchStats raw;           // in the plot frame as given
-  MatchStats yaw_aligned;   // after the best yaw about the origin
-  double yaw_deg = 0.0;     // rotation applied to the predictions for `yaw_aligned`
+  MatchStats raw;          // in the plot frame as given
+  MatchStats yaw_aligned;  // after the best yaw about the origin
+  double yaw_deg = 0.0;    // rotation applied to the predictions for `yaw_aligned`
   bool has_trajectory = false;
   TrajectoryStats trajectory;
   std::string ToMarkdown() const;

@@ -1,10 +1,10 @@
 // Trajectory comparison, the whole evaluation, and its Markdown/JSON forms.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-#include <numbers>
-
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <numbers>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -138,7 +138,8 @@ std::string Evaluation::ToMarkdown() const {
 }
 
 void to_json(nlohmann::json& j, const Evaluation& e) {
-  j = {{"raw", MatchJson(e.raw)}, {"yaw_aligned", MatchJson(e.yaw_aligned)}, {"yaw_deg", e.yaw_deg}};
+  j = {
+      {"raw", MatchJson(e.raw)}, {"yaw_aligned", MatchJson(e.yaw_aligned)}, {"yaw_deg", e.yaw_deg}};
   if (e.has_trajectory) {
     const TrajectoryStats& t = e.trajectory;
     j["trajectory"] = {{"n_poses", t.n_poses},
@@ -160,12 +161,10 @@ Evaluation RunEvaluate(const EvaluateOptions& o, const EvaluateFiles& files) {
       Evaluate(o, truth, predicted, files.trajectory_tum.empty() ? nullptr : &trajectory);
   if (!files.out_dir.empty()) {
     nlohmann::json j = e;
-    j["options"] = {{"plot_radius_m", o.plot_radius_m},
-                    {"min_dbh_cm", o.min_dbh_cm},
-                    {"match_radius_m", o.match_radius_m},
-                    {"truth", files.truth_json.string()},
-                    {"trees", files.trees_csv.string()},
-                    {"trajectory", files.trajectory_tum.string()}};
+    j["options"] = {
+        {"plot_radius_m", o.plot_radius_m},   {"min_dbh_cm", o.min_dbh_cm},
+        {"match_radius_m", o.match_radius_m}, {"truth", files.truth_json.string()},
+        {"trees", files.trees_csv.string()},  {"trajectory", files.trajectory_tum.string()}};
     WriteJsonAtomic(files.out_dir / "evaluation.json", j);
     WriteFileAtomic(files.out_dir / "evaluation.md", e.ToMarkdown());
   }

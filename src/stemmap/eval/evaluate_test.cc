@@ -1,8 +1,8 @@
 #include "stemmap/eval/evaluate.h"
 
-#include <filesystem>
-
 #include <gtest/gtest.h>
+
+#include <filesystem>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -103,7 +103,8 @@ TEST(Evaluate, TrajectoryAteScaleAndYaw) {
               Eigen::Vector3d(std::cos(th), std::sin(th), 1.3)};
     truth.poses.push_back({i / 30.0, p});
     // Estimate: 1% too large and rotated by -yaw.
-    est.push_back({i / 30.0, {rz.conjugate() * p.rotation, rz.conjugate() * (1.01 * p.translation)}});
+    est.push_back(
+        {i / 30.0, {rz.conjugate() * p.rotation, rz.conjugate() * (1.01 * p.translation)}});
   }
   const Evaluation e = Evaluate({}, truth, truth.trees, &est);
   ASSERT_TRUE(e.has_trajectory);

@@ -1,10 +1,10 @@
 #include "stemmap/eval/plot_io.h"
 
-#include <cmath>
-#include <sstream>
-
 #include <fmt/format.h>
+
+#include <cmath>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -86,8 +86,8 @@ std::vector<StemRecord> ReadTreesCsv(const std::filesystem::path& path) {
       r.id = iid >= 0 ? std::stoi(field(iid)) : static_cast<int>(trees.size()) + 1;
       r.dbh_sd_cm = isd >= 0 && !field(isd).empty() ? std::stod(field(isd)) : 0.0;
     } catch (const std::exception&) {
-      throw InputError(fmt::format("{}:{}: a number is missing or malformed", path.string(),
-                                   line_no));
+      throw InputError(
+          fmt::format("{}:{}: a number is missing or malformed", path.string(), line_no));
     }
     r.flags = field(iflags);
     if (!std::isfinite(r.x_m) || !std::isfinite(r.y_m) || !std::isfinite(r.dbh_cm)) {

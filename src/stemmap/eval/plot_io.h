@@ -20,8 +20,8 @@ struct StemRecord {
 };
 
 struct TruthPlot {
-  std::vector<StemRecord> trees;      // plot trees (saplings excluded)
-  std::vector<StampedPose> poses;     // camera poses, world_from_cam, may be empty
+  std::vector<StemRecord> trees;   // plot trees (saplings excluded)
+  std::vector<StampedPose> poses;  // camera poses, world_from_cam, may be empty
   double arm_radius_m = 0.0;
 };
 

@@ -11,7 +11,9 @@ constexpr int kOctaves = 3;
 
 Ground::Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_m,
                double wavelength_m, uint64_t seed, double extent_m)
-    : unevenness_m_(unevenness_m), wavelength_m_(wavelength_m), slope_deg_(slope_deg),
+    : unevenness_m_(unevenness_m),
+      wavelength_m_(wavelength_m),
+      slope_deg_(slope_deg),
       noise_(seed) {
   table_origin_m_ = -extent_m;
   table_n_ = static_cast<int>(std::ceil(2.0 * extent_m / table_step_m_)) + 2;
@@ -25,8 +27,8 @@ Ground::Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_
   }
   const double s = std::tan(slope_deg * std::numbers::pi / 180.0);
   // Height falls toward the downhill azimuth.
-  plane_gradient_ = -s * Eigen::Vector2d(std::cos(downhill_azimuth_rad),
-                                         std::sin(downhill_azimuth_rad));
+  plane_gradient_ =
+      -s * Eigen::Vector2d(std::cos(downhill_azimuth_rad), std::sin(downhill_azimuth_rad));
   // The tabulated surface is piecewise bilinear: its steepest slope is found among the cells.
   double max_bump_slope = 0.0;
   for (int i = 0; i + 1 < table_n_; ++i) {
@@ -44,7 +46,8 @@ Ground::Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_
 }
 
 double Ground::Bump(double x, double y) const {
-  const double fx = (x - table_origin_m_) / table_step_m_, fy = (y - table_origin_m_) / table_step_m_;
+  const double fx = (x - table_origin_m_) / table_step_m_,
+               fy = (y - table_origin_m_) / table_step_m_;
   const int j = static_cast<int>(std::floor(fx)), i = static_cast<int>(std::floor(fy));
   if (i < 0 || j < 0 || i + 1 >= table_n_ || j + 1 >= table_n_) {
     return unevenness_m_ * noise_.Fbm2(x / wavelength_m_, y / wavelength_m_, kOctaves);

@@ -1,11 +1,11 @@
 #include "stemmap/sim/render.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
-
-#include <fmt/format.h>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
@@ -15,7 +15,6 @@ namespace stemmap::sim {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
 
 double SmoothStep(double e0, double e1, double x) {
   const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
@@ -116,7 +115,9 @@ double Renderer::SunVisibility(const Eigen::Vector3d& p) const {
   if (i < 0 || j < 0 || i + 1 >= shadow_depth_.rows || j + 1 >= shadow_depth_.cols) return vis;
   const double wx = fx - j, wy = fy - i;
   const double bias = 0.03;
-  auto lit = [&](int ii, int jj) { return k <= shadow_depth_.at<float>(ii, jj) + bias ? 1.0 : 0.0; };
+  auto lit = [&](int ii, int jj) {
+    return k <= shadow_depth_.at<float>(ii, jj) + bias ? 1.0 : 0.0;
+  };
   const double l = (1 - wy) * ((1 - wx) * lit(i, j) + wx * lit(i, j + 1)) +
                    wy * ((1 - wx) * lit(i + 1, j) + wx * lit(i + 1, j + 1));
   return vis * l;
@@ -175,8 +176,8 @@ Eigen::Vector3f Renderer::GroundAlbedo(double x, double y) const {
   const ValueNoise& nz = ground_noise_;
   const bool natural = scene_.kind == StandKind::kNatural;
   const double patch = nz.Fbm2(x / 3.0, y / 3.0, 3);
-  const Eigen::Vector3f litter = natural ? Eigen::Vector3f(0.20f, 0.16f, 0.10f)
-                                         : Eigen::Vector3f(0.24f, 0.18f, 0.11f);
+  const Eigen::Vector3f litter =
+      natural ? Eigen::Vector3f(0.20f, 0.16f, 0.10f) : Eigen::Vector3f(0.24f, 0.18f, 0.11f);
   const Eigen::Vector3f green(0.11f, 0.19f, 0.06f);
   const double g = SmoothStep(natural ? -0.2 : 0.05, natural ? 0.25 : 0.45, patch);
   Eigen::Vector3f a = litter * static_cast<float>(1 - g) + green * static_cast<float>(g);
@@ -265,7 +266,8 @@ bool Renderer::IntersectShrub(int k, const Eigen::Vector3d& o, const Eigen::Vect
                            leaf.Noise3(p.x() * 12.0, (p.y() + h) * 12.0, p.z() * 12.0) - v0,
                            leaf.Noise3(p.x() * 12.0, p.y() * 12.0, (p.z() + h) * 12.0) - v0);
       *n = (q.normalized() * 0.6 - gdir.normalized() * 0.4 - d * 0.3).normalized();
-      const double tint = 0.75 + 0.5 * (0.5 + 0.5 * leaf.Noise3(p.x() * 23.0, p.y() * 23.0, p.z() * 23.0));
+      const double tint =
+          0.75 + 0.5 * (0.5 + 0.5 * leaf.Noise3(p.x() * 23.0, p.y() * 23.0, p.z() * 23.0));
       *albedo = Eigen::Vector3f(0.09f, 0.20f, 0.05f) * static_cast<float>(tint);
       return true;
     }

@@ -1,8 +1,7 @@
 #pragma once
 
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "stemmap/camera/camera.h"
 #include "stemmap/core/pose.h"
@@ -11,8 +10,8 @@
 namespace stemmap::sim {
 
 struct RenderOptions {
-  bool antialias = true;     // extra samples on pixels at object or depth edges
-  int edge_samples = 4;      // samples added to each edge pixel
+  bool antialias = true;  // extra samples on pixels at object or depth edges
+  int edge_samples = 4;   // samples added to each edge pixel
   double shadow_texel_m = 0.05;
   void Check() const;
 };
@@ -37,8 +36,8 @@ class Renderer {
     int object = 0;  // 0 sky, 1 ground, 2 wall, 3 canopy, 100+ trees, 100000+ shrubs
   };
   struct Candidate {
-    int index;              // tree index, or -(shrub index + 1)
-    double min_dist_xy_m;   // nearest the object can be, horizontally
+    int index;             // tree index, or -(shrub index + 1)
+    double min_dist_xy_m;  // nearest the object can be, horizontally
     double centre_az, half_width;
   };
   // One ray through the scene; `candidates` are the objects that may lie along it, nearest first.
@@ -57,8 +56,8 @@ class Renderer {
                       double* t, Eigen::Vector3d* n, Eigen::Vector3f* albedo) const;
   void BuildShadowMap();
   std::vector<Candidate> ColumnCandidates(const Eigen::Vector3d& cam_centre,
-                                          const std::vector<Candidate>& objects,
-                                          double col_az, double col_half) const;
+                                          const std::vector<Candidate>& objects, double col_az,
+                                          double col_half) const;
 
   const Scene& scene_;
   PinholeCamera camera_;

@@ -30,9 +30,9 @@ double SegmentDistance(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
 
 }  // namespace
 
-std::vector<Renderer::Candidate> Renderer::ColumnCandidates(
-    const Eigen::Vector3d&, const std::vector<Candidate>& objects, double col_az,
-    double col_half) const {
+std::vector<Renderer::Candidate> Renderer::ColumnCandidates(const Eigen::Vector3d&,
+                                                            const std::vector<Candidate>& objects,
+                                                            double col_az, double col_half) const {
   std::vector<Candidate> out;
   for (const Candidate& c : objects) {
     if (std::abs(WrapPi(c.centre_az - col_az)) <= c.half_width + col_half) out.push_back(c);
@@ -114,7 +114,8 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
         const double v = canopy_noise_.Fbm3(p.x() / 3.5, p.y() / 3.5, p.z() / 2.5, 2);
         const double alpha = std::clamp((v - th) * 8.0, 0.0, 0.97);
         if (alpha > 0) {
-          const float tint = static_cast<float>(0.8 + 0.4 * canopy_noise_.Noise3(p.x(), p.y(), 3.3));
+          const float tint =
+              static_cast<float>(0.8 + 0.4 * canopy_noise_.Noise3(p.x(), p.y(), 3.3));
           acc += leaf * static_cast<float>(transmit * alpha) * tint;
           transmit *= 1.0 - alpha;
           if (transmit < 0.5 && object != kObjCanopy && t < t_end) {
@@ -129,7 +130,8 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
   // Aerial perspective: distant things fade toward a bright haze.
   const double haze =
       object == kObjSky ? 0.0 : 1.0 - std::exp(-std::min(t_end * dxy, 400.0) / 400.0);
-  rgb = rgb * static_cast<float>(1.0 - haze) + Eigen::Vector3f(0.7f, 0.8f, 0.9f) * static_cast<float>(haze);
+  rgb = rgb * static_cast<float>(1.0 - haze) +
+        Eigen::Vector3f(0.7f, 0.8f, 0.9f) * static_cast<float>(haze);
   s.rgb = rgb;
   s.t = static_cast<float>(t_end);
   s.object = object;
@@ -222,10 +224,10 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
 
   // Edge pixels (object changes or depth jumps) get extra samples on a rotated grid.
   static const double kOffsets[16][2] = {
-      {-0.125, -0.375}, {0.375, -0.125}, {0.125, 0.375},  {-0.375, 0.125},
-      {-0.3, -0.1},     {0.1, -0.3},     {0.3, 0.1},      {-0.1, 0.3},
-      {-0.45, -0.45},   {0.45, -0.45},   {0.45, 0.45},    {-0.45, 0.45},
-      {0.0, -0.45},     {0.45, 0.0},     {0.0, 0.45},     {-0.45, 0.0}};
+      {-0.125, -0.375}, {0.375, -0.125}, {0.125, 0.375}, {-0.375, 0.125},
+      {-0.3, -0.1},     {0.1, -0.3},     {0.3, 0.1},     {-0.1, 0.3},
+      {-0.45, -0.45},   {0.45, -0.45},   {0.45, 0.45},   {-0.45, 0.45},
+      {0.0, -0.45},     {0.45, 0.0},     {0.0, 0.45},    {-0.45, 0.0}};
   const cv::Mat depth0 = out.depth_m.clone();
 #pragma omp parallel for schedule(dynamic, 4)
   for (int v = 0; v < h; ++v) {
@@ -240,8 +242,9 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
         const int id1 = ids.at<int>(vv, uu);
         const bool stem0 = id0 >= kObjTree && id0 < kObjShrub;
         const bool stem1 = id1 >= kObjTree && id1 < kObjShrub;
-        if ((stem0 || stem1) && (id1 != id0 || std::abs(depth0.at<float>(vv, uu) - d0) >
-                                                   0.04f * std::min(d0, depth0.at<float>(vv, uu)))) {
+        if ((stem0 || stem1) &&
+            (id1 != id0 || std::abs(depth0.at<float>(vv, uu) - d0) >
+                               0.04f * std::min(d0, depth0.at<float>(vv, uu)))) {
           edge = true;
           break;
         }

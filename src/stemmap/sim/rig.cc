@@ -27,16 +27,16 @@ std::vector<RigFrame> SimulateRig(const RigParams& p) {
   std::vector<double> theta(static_cast<size_t>(n) * sub + 1, 0.0);
   for (size_t k = 1; k < theta.size(); ++k) {
     const double t = (k - 0.5) / (sub * p.fps);
-    const double v = 1.0 + p.speed_variation * std::clamp(1.6 * speed_noise.Fbm2(t / 4.0, 0.5, 2),
-                                                          -1.0, 1.0);
+    const double v =
+        1.0 + p.speed_variation * std::clamp(1.6 * speed_noise.Fbm2(t / 4.0, 0.5, 2), -1.0, 1.0);
     theta[k] = theta[k - 1] + v;
   }
   const double scale = 2.0 * std::numbers::pi * p.turns / theta.back() * p.direction;
   for (double& th : theta) th *= scale;
 
-  const Eigen::Quaterniond tilt =
-      Rot(Eigen::Vector3d(-std::sin(p.stand_tilt_azimuth_rad), std::cos(p.stand_tilt_azimuth_rad), 0),
-          p.stand_tilt_deg * kDeg);
+  const Eigen::Quaterniond tilt = Rot(
+      Eigen::Vector3d(-std::sin(p.stand_tilt_azimuth_rad), std::cos(p.stand_tilt_azimuth_rad), 0),
+      p.stand_tilt_deg * kDeg);
   // Camera axes when the arm points along +x: looking outward (+x), right = -y, down = -z.
   Eigen::Matrix3d arm_from_cam_nominal;
   arm_from_cam_nominal << 0, 0, 1,  //

@@ -1,13 +1,13 @@
 #include "stemmap/sim/scene.h"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <numbers>
 #include <sstream>
-
-#include <fmt/format.h>
-#include <spdlog/spdlog.h>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -98,7 +98,8 @@ StemParams MakeStem(const Placed& t, StandKind kind, const Ground& ground, Rng& 
   p.ellipse_azimuth_rad = rng.Uniform(0, std::numbers::pi);
   p.flare = t.sapling ? 0.05 : rng.Uniform(0.12, kind == StandKind::kNatural ? 0.5 : 0.35);
   p.flare_height_m = rng.Uniform(0.22, 0.4);
-  p.furrow_depth_m = t.sapling ? 0.0005 : (0.0015 + 0.007 * t.dbh_cm / 60.0) * rng.Uniform(0.7, 1.3);
+  p.furrow_depth_m =
+      t.sapling ? 0.0005 : (0.0015 + 0.007 * t.dbh_cm / 60.0) * rng.Uniform(0.7, 1.3);
   p.furrow_spacing_m = t.sapling ? 0.01 : rng.Uniform(0.02, 0.05);
   p.height_m = t.sapling ? rng.Uniform(2.0, 5.0) : rng.Uniform(16.0, 28.0);
   // Bark palettes: grey-brown pine, grey beech/oak-like, dark spruce-like.
@@ -112,14 +113,15 @@ StemParams MakeStem(const Placed& t, StandKind kind, const Ground& ground, Rng& 
 
   // Place the axis so that its breast-height point lands on the requested position. Breast
   // height is measured from the ground on the uphill side of the stem.
-  const Eigen::Vector2d axis_xy = std::sin(p.lean_rad) *
+  const Eigen::Vector2d axis_xy =
+      std::sin(p.lean_rad) *
       Eigen::Vector2d(std::cos(p.lean_azimuth_rad), std::sin(p.lean_azimuth_rad));
   Eigen::Vector2d base_xy = t.xy;
   for (int it = 0; it < 4; ++it) {
     const double base_z = ground.Height(base_xy.x(), base_xy.y());
     Eigen::Vector2d g = ground.Gradient(base_xy.x(), base_xy.y());
-    const Eigen::Vector2d uphill = g.norm() > 1e-9 ? Eigen::Vector2d(g.normalized())
-                                                   : Eigen::Vector2d(1, 0);
+    const Eigen::Vector2d uphill =
+        g.norm() > 1e-9 ? Eigen::Vector2d(g.normalized()) : Eigen::Vector2d(1, 0);
     const Eigen::Vector2d up_pt = base_xy + r_bh * uphill;
     const double z_up = ground.Height(up_pt.x(), up_pt.y());
     p.s_bh_m = (std::max(z_up, base_z) + kBreastHeightM - base_z) / std::cos(p.lean_rad);
@@ -146,8 +148,8 @@ void SceneOptions::Check() const {
   }
   for (const LayoutStem& s : layout) {
     if (!(s.dbh_cm > 0.5 && s.dbh_cm < 300) || !std::isfinite(s.x_m) || !std::isfinite(s.y_m)) {
-      throw InputError(fmt::format("layout stem at ({}, {}) with DBH {} cm is not plausible",
-                                   s.x_m, s.y_m, s.dbh_cm));
+      throw InputError(fmt::format("layout stem at ({}, {}) with DBH {} cm is not plausible", s.x_m,
+                                   s.y_m, s.dbh_cm));
     }
   }
 }
@@ -215,8 +217,10 @@ Scene GenerateScene(const SceneOptions& o) {
             tree.stem.AxisPoint(s_clump) +
             Eigen::Vector3d(stem_rng.Normal(0, 0.15), stem_rng.Normal(0, 0.15), 0);
         const double rr = stem_rng.Uniform(0.25, 0.55);
-        scene.shrubs.push_back({centre, {rr, rr * stem_rng.Uniform(0.7, 1.2), rr * 0.7},
-                                stem_rng.Uniform(0.25, 0.45), stem_rng.NextU64()});
+        scene.shrubs.push_back({centre,
+                                {rr, rr * stem_rng.Uniform(0.7, 1.2), rr * 0.7},
+                                stem_rng.Uniform(0.25, 0.45),
+                                stem_rng.NextU64()});
       }
     }
     scene.trees.push_back(std::move(tree));
@@ -232,8 +236,8 @@ Scene GenerateScene(const SceneOptions& o) {
     const double rx = shrub_rng.Uniform(0.3, 1.0), ry = shrub_rng.Uniform(0.3, 1.0);
     const double rz = shrub_rng.Uniform(0.3, 0.8);
     const double z = scene.ground.Height(xy.x(), xy.y()) + 0.6 * rz;
-    scene.shrubs.push_back({{xy.x(), xy.y(), z}, {rx, ry, rz}, shrub_rng.Uniform(0.3, 0.6),
-                            shrub_rng.NextU64()});
+    scene.shrubs.push_back(
+        {{xy.x(), xy.y(), z}, {rx, ry, rz}, shrub_rng.Uniform(0.3, 0.6), shrub_rng.NextU64()});
   }
 
   Lighting& L = scene.light;

@@ -1,10 +1,9 @@
 #pragma once
 
+#include <Eigen/Core>
 #include <filesystem>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "stemmap/sim/ground.h"
 #include "stemmap/sim/stem.h"
@@ -30,8 +29,8 @@ std::vector<LayoutStem> ReadLayoutCsv(const std::filesystem::path& path,
 struct SceneOptions {
   StandKind kind = StandKind::kManaged;
   uint64_t seed = 1;
-  double scene_radius_m = 40.0;   // trees are placed out to here; beyond is a distant forest wall
-  double keep_clear_m = 1.7;      // no stem this close to the axis (the arm sweeps 1 m)
+  double scene_radius_m = 40.0;    // trees are placed out to here; beyond is a distant forest wall
+  double keep_clear_m = 1.7;       // no stem this close to the axis (the arm sweeps 1 m)
   std::vector<LayoutStem> layout;  // when not empty, the plot's stems come from it
   void Check() const;
 };
@@ -51,19 +50,19 @@ struct SceneTree {
 };
 
 struct Lighting {
-  Eigen::Vector3d sun_dir_world;   // unit, toward the sun
-  Eigen::Vector3f sun_rgb;         // irradiance on a surface facing the sun
-  Eigen::Vector3f sky_rgb;         // ambient irradiance
-  double canopy_base_m = 9.0;      // foliage layer (trunks run up into it)
+  Eigen::Vector3d sun_dir_world;  // unit, toward the sun
+  Eigen::Vector3f sun_rgb;        // irradiance on a surface facing the sun
+  Eigen::Vector3f sky_rgb;        // ambient irradiance
+  double canopy_base_m = 9.0;     // foliage layer (trunks run up into it)
   double canopy_top_m = 22.0;
-  double canopy_cover = 0.7;       // share of the sky hidden by crowns
+  double canopy_cover = 0.7;  // share of the sky hidden by crowns
   uint64_t seed = 0;
 };
 
 struct Scene {
   StandKind kind = StandKind::kManaged;
   Ground ground;
-  std::vector<SceneTree> trees;    // plot trees and saplings
+  std::vector<SceneTree> trees;  // plot trees and saplings
   std::vector<Shrub> shrubs;
   Lighting light;
   double scene_radius_m = 40.0;

@@ -1,8 +1,8 @@
 #include "stemmap/sim/scene.h"
 
-#include <filesystem>
-
 #include <gtest/gtest.h>
+
+#include <filesystem>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"

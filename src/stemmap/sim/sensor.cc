@@ -56,8 +56,8 @@ double SensorModel::Meter(const cv::Mat& radiance) const {
   return std::exp(sum / wsum);
 }
 
-cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s,
-                             double arm_radius_m, int frame_index, double dt_s) {
+cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s, double arm_radius_m,
+                             int frame_index, double dt_s) {
   const cv::Mat& rad = frame.radiance;
   const int w = rad.cols, h = rad.rows;
   const double target = params_.ae_target / Meter(rad);
@@ -96,7 +96,8 @@ cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s,
         c = row[u];
       }
       const double du = (u - camera_.cx) / camera_.fx, dv = (v - camera_.cy) / camera_.fy;
-      const float vig = static_cast<float>(1.0 - params_.vignetting * std::min(1.0, (du * du + dv * dv) / 0.6));
+      const float vig =
+          static_cast<float>(1.0 - params_.vignetting * std::min(1.0, (du * du + dv * dv) / 0.6));
       for (int ch = 0; ch < 3; ++ch) {
         float x = c[ch] * exposure * vig;
         const float sd = std::sqrt(static_cast<float>(params_.shot_noise) * std::max(x, 0.0f) +

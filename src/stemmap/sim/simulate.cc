@@ -1,13 +1,13 @@
 #include "stemmap/sim/simulate.h"
 
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
 #include <chrono>
 #include <cmath>
-#include <numbers>
-
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <numbers>
 #include <opencv2/imgcodecs.hpp>
-#include <spdlog/spdlog.h>
 
 #include "stemmap/camera/camera.h"
 #include "stemmap/core/error.h"
@@ -27,7 +27,8 @@ namespace fs = std::filesystem;
 void SimulateOptions::Check() const {
   if (out_dir.empty()) throw InputError("simulate needs an output folder (--out)");
   if (width < 64 || height < 64 || width > 4096 || height > 4096 || width % 2 || height % 2) {
-    throw InputError(fmt::format("frame size {}x{}: use even sizes from 64 to 4096", width, height));
+    throw InputError(
+        fmt::format("frame size {}x{}: use even sizes from 64 to 4096", width, height));
   }
   if (!(fps >= 1 && fps <= 120)) throw InputError(fmt::format("fps {} out of [1, 120]", fps));
   if (seconds < 0 || seconds > 600) throw InputError("seconds must be in (0, 600]");
@@ -43,17 +44,26 @@ void SimulateOptions::Check() const {
 }
 
 std::string SimulateSummary::BriefReport() const {
-  return fmt::format("{} frames ({:.1f} s of video), {} trees within 10 m ({} in the scene), "
-                     "rendered in {:.1f} s",
-                     frames, seconds, plot_trees, all_trees, wall_s);
+  return fmt::format(
+      "{} frames ({:.1f} s of video), {} trees within 10 m ({} in the scene), "
+      "rendered in {:.1f} s",
+      frames, seconds, plot_trees, all_trees, wall_s);
 }
 
 void to_json(nlohmann::json& j, const SimulateOptions& o) {
-  j = {{"seed", o.seed},         {"kind", ToString(o.kind)},     {"width", o.width},
-       {"height", o.height},     {"fps", o.fps},                 {"seconds", o.seconds},
-       {"turns", o.turns},       {"arm_radius_m", o.arm_radius_m}, {"hfov_deg", o.hfov_deg},
-       {"k1", o.k1},             {"bitrate_mbps", o.bitrate_mbps},
-       {"layout_csv", o.layout_csv.string()}, {"layout_plot", o.layout_plot},
+  j = {{"seed", o.seed},
+       {"kind", ToString(o.kind)},
+       {"width", o.width},
+       {"height", o.height},
+       {"fps", o.fps},
+       {"seconds", o.seconds},
+       {"turns", o.turns},
+       {"arm_radius_m", o.arm_radius_m},
+       {"hfov_deg", o.hfov_deg},
+       {"k1", o.k1},
+       {"bitrate_mbps", o.bitrate_mbps},
+       {"layout_csv", o.layout_csv.string()},
+       {"layout_plot", o.layout_plot},
        {"stills", o.stills}};
 }
 

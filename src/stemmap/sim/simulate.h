@@ -1,9 +1,8 @@
 #pragma once
 
 #include <filesystem>
-#include <string>
-
 #include <nlohmann/json_fwd.hpp>
+#include <string>
 
 #include "stemmap/sim/scene.h"
 
@@ -18,22 +17,22 @@ struct SimulateOptions {
   int width = 1920;
   int height = 1080;
   double fps = 30.0;
-  double seconds = 0.0;        // 0: 40-50 s
-  double turns = 0.0;          // 0: 1.05-1.15
+  double seconds = 0.0;  // 0: 40-50 s
+  double turns = 0.0;    // 0: 1.05-1.15
   double arm_radius_m = 1.0;
-  double hfov_deg = 0.0;       // 0: 60-75°
-  double k1 = 0.0;             // radial distortion of the simulated lens
-  double bitrate_mbps = 0.0;   // 0: a phone's rate scaled to the frame size
+  double hfov_deg = 0.0;      // 0: 60-75°
+  double k1 = 0.0;            // radial distortion of the simulated lens
+  double bitrate_mbps = 0.0;  // 0: a phone's rate scaled to the frame size
   std::filesystem::path layout_csv;
-  std::string layout_plot;     // plot id inside the layout (default: the first)
-  int stills = 3;              // PNG frames written to out_dir/stills
+  std::string layout_plot;  // plot id inside the layout (default: the first)
+  int stills = 3;           // PNG frames written to out_dir/stills
   void Check() const;
 };
 
 struct SimulateSummary {
   int frames = 0;
   double seconds = 0.0;
-  int plot_trees = 0;      // trees within 10 m of the centre
+  int plot_trees = 0;  // trees within 10 m of the centre
   int all_trees = 0;
   double wall_s = 0.0;
   std::string BriefReport() const;

@@ -1,10 +1,9 @@
 #pragma once
 
-#include <cstdint>
-#include <optional>
-
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
+#include <optional>
 
 #include "stemmap/core/noise.h"
 
@@ -15,26 +14,26 @@ struct StemParams {
   Eigen::Vector3d base_world = Eigen::Vector3d::Zero();  // axis point at the ground
   double lean_rad = 0.0;
   double lean_azimuth_rad = 0.0;
-  double radius_bh_m = 0.15;          // mean radius of the ellipse at s = s_bh_m
-  double s_bh_m = 1.37;               // axis coordinate of breast height
-  double taper_m_per_m = 0.005;       // radius lost per metre of height
-  double axis_ratio = 1.0;            // minor / major of the elliptical section, <= 1
-  double ellipse_azimuth_rad = 0.0;   // major axis direction in the stem frame
-  double flare = 0.3;                 // extra radius at the ground, as a fraction of radius_bh
-  double flare_height_m = 0.35;       // e-folding height of the root flare
-  double furrow_depth_m = 0.004;      // bark relief; furrows cut inward from the outer envelope
+  double radius_bh_m = 0.15;         // mean radius of the ellipse at s = s_bh_m
+  double s_bh_m = 1.37;              // axis coordinate of breast height
+  double taper_m_per_m = 0.005;      // radius lost per metre of height
+  double axis_ratio = 1.0;           // minor / major of the elliptical section, <= 1
+  double ellipse_azimuth_rad = 0.0;  // major axis direction in the stem frame
+  double flare = 0.3;                // extra radius at the ground, as a fraction of radius_bh
+  double flare_height_m = 0.35;      // e-folding height of the root flare
+  double furrow_depth_m = 0.004;     // bark relief; furrows cut inward from the outer envelope
   double furrow_spacing_m = 0.03;
-  double height_m = 20.0;             // stem top (hidden in the canopy)
+  double height_m = 20.0;                            // stem top (hidden in the canopy)
   Eigen::Vector3f bark_rgb = {0.35f, 0.30f, 0.26f};  // linear albedo of the plates
-  double lichen = 0.2;                // share of bark covered by pale lichen
-  double moss = 0.2;                  // moss near the base
+  double lichen = 0.2;                               // share of bark covered by pale lichen
+  double moss = 0.2;                                 // moss near the base
   uint64_t seed = 0;
 };
 
 struct StemHit {
-  double t = 0.0;                  // ray parameter
-  Eigen::Vector3d normal_world;    // outward
-  Eigen::Vector3f albedo;          // linear RGB
+  double t = 0.0;                // ray parameter
+  Eigen::Vector3d normal_world;  // outward
+  Eigen::Vector3f albedo;        // linear RGB
 };
 
 // A stem as an implicit surface in its own frame (z along the axis): a point is inside when its
@@ -54,8 +53,8 @@ class Stem {
 
   // First intersection of the ray o + t d (|d| = 1) with t in (t_min, t_max). The surface is
   // located to `tol_per_m` × t (a fraction of the pixel footprint is plenty).
-  std::optional<StemHit> Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                                   double t_min, double t_max, double tol_per_m = 1e-5) const;
+  std::optional<StemHit> Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min,
+                                   double t_max, double tol_per_m = 1e-5) const;
   // True when the segment o + t d, t in (0, t_max), passes through the stem (for shadows).
   bool Blocks(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max) const;
   // Entry distance of the ray into the stem's smooth envelope (no bark relief), or infinity.

@@ -1,8 +1,8 @@
 #include "stemmap/sim/stem.h"
 
-#include <numbers>
-
 #include <gtest/gtest.h>
+
+#include <numbers>
 
 namespace stemmap::sim {
 namespace {

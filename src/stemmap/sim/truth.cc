@@ -1,9 +1,8 @@
 #include "stemmap/sim/truth.h"
 
 #include <cmath>
-#include <numbers>
-
 #include <nlohmann/json.hpp>
+#include <numbers>
 
 #include "stemmap/core/io.h"
 
@@ -67,13 +66,15 @@ void WriteTruth(const std::filesystem::path& path, const Scene& scene, const Pin
               {"azimuth_deg", std::atan2(s.y(), s.x()) * kRad2Deg}};
   j["trees"] = nlohmann::json::array();
   j["saplings"] = nlohmann::json::array();
-  for (const SceneTree& t : scene.trees) (t.sapling ? j["saplings"] : j["trees"]).push_back(TreeJson(t));
+  for (const SceneTree& t : scene.trees)
+    (t.sapling ? j["saplings"] : j["trees"]).push_back(TreeJson(t));
   j["shrubs"] = scene.shrubs.size();
   nlohmann::json poses = nlohmann::json::array();
   for (size_t i = 0; i < frames.size(); ++i) {
     const auto& q = frames[i].world_from_cam.rotation;
     const auto& t = frames[i].world_from_cam.translation;
-    poses.push_back({{"frame", i}, {"t_s", frames[i].t_s},
+    poses.push_back({{"frame", i},
+                     {"t_s", frames[i].t_s},
                      {"t_xyz", {t.x(), t.y(), t.z()}},
                      {"q_xyzw", {q.x(), q.y(), q.z(), q.w()}}});
   }

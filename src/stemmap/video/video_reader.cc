@@ -8,9 +8,9 @@ extern "C" {
 #include <libswscale/swscale.h>
 }
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 #include <opencv2/core.hpp>
 
 #include "stemmap/core/error.h"
@@ -100,8 +100,8 @@ VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options
 
   m.info.codec = codec->name;
   m.info.rotation_deg = DisplayRotationDeg(stream);
-  const AVRational rate = stream->avg_frame_rate.num > 0 ? stream->avg_frame_rate
-                                                         : stream->r_frame_rate;
+  const AVRational rate =
+      stream->avg_frame_rate.num > 0 ? stream->avg_frame_rate : stream->r_frame_rate;
   m.info.fps = rate.num > 0 && rate.den > 0 ? av_q2d(rate) : 0.0;
   if (stream->duration > 0) {
     m.info.duration_s = stream->duration * av_q2d(stream->time_base);
@@ -154,10 +154,17 @@ std::optional<DecodedFrame> VideoReader::Next() {
       out.index = m.decoded++;
       out.t_s = t_s;
       switch (m.info.rotation_deg) {
-        case 90: cv::rotate(bgr, out.bgr, cv::ROTATE_90_CLOCKWISE); break;
-        case 180: cv::rotate(bgr, out.bgr, cv::ROTATE_180); break;
-        case 270: cv::rotate(bgr, out.bgr, cv::ROTATE_90_COUNTERCLOCKWISE); break;
-        default: out.bgr = bgr;
+        case 90:
+          cv::rotate(bgr, out.bgr, cv::ROTATE_90_CLOCKWISE);
+          break;
+        case 180:
+          cv::rotate(bgr, out.bgr, cv::ROTATE_180);
+          break;
+        case 270:
+          cv::rotate(bgr, out.bgr, cv::ROTATE_90_COUNTERCLOCKWISE);
+          break;
+        default:
+          out.bgr = bgr;
       }
       return out;
     }

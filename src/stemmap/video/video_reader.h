@@ -2,17 +2,16 @@
 
 #include <filesystem>
 #include <memory>
-#include <optional>
-
 #include <opencv2/core.hpp>
+#include <optional>
 
 namespace stemmap {
 
 // What the container says about a video, before any frame is decoded.
 struct VideoInfo {
-  int width = 0;   // after the display rotation is applied
+  int width = 0;  // after the display rotation is applied
   int height = 0;
-  double fps = 0.0;       // average frame rate
+  double fps = 0.0;  // average frame rate
   double duration_s = 0.0;
   int64_t frame_count = 0;  // container's estimate; may be 0 when unknown
   int rotation_deg = 0;     // clockwise rotation applied to decoded frames (0, 90, 180, 270)

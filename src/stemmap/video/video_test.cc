@@ -1,6 +1,6 @@
-#include <filesystem>
-
 #include <gtest/gtest.h>
+
+#include <filesystem>
 #include <opencv2/imgproc.hpp>
 
 #include "stemmap/core/error.h"
@@ -14,7 +14,8 @@ namespace {
 namespace fs = std::filesystem;
 
 fs::path TestDir() {
-  const fs::path d = fs::temp_directory_path() / ("stemmap_video_test_" + std::to_string(::getpid()));
+  const fs::path d =
+      fs::temp_directory_path() / ("stemmap_video_test_" + std::to_string(::getpid()));
   fs::create_directories(d);
   return d;
 }

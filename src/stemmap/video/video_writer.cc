@@ -55,8 +55,8 @@ struct VideoWriter::Impl {
     if (ret < 0) {
       char buf[AV_ERROR_MAX_STRING_SIZE] = {0};
       av_strerror(ret, buf, sizeof(buf));
-      throw ProcessingError(fmt::format("video encoding ({}) failed for {}: {}", what,
-                                        path.string(), buf));
+      throw ProcessingError(
+          fmt::format("video encoding ({}) failed for {}: {}", what, path.string(), buf));
     }
   }
 
@@ -122,9 +122,9 @@ VideoWriter::VideoWriter(const fs::path& path, const VideoWriterOptions& options
   m.frame->height = options.height;
   m.Check(av_frame_get_buffer(m.frame, 0), "frame buffer");
   m.packet = av_packet_alloc();
-  m.sws = sws_getContext(options.width, options.height, AV_PIX_FMT_BGR24, options.width,
-                         options.height, AV_PIX_FMT_YUV420P, SWS_BICUBIC, nullptr, nullptr,
-                         nullptr);
+  m.sws =
+      sws_getContext(options.width, options.height, AV_PIX_FMT_BGR24, options.width, options.height,
+                     AV_PIX_FMT_YUV420P, SWS_BICUBIC, nullptr, nullptr, nullptr);
   if (!m.sws) throw ProcessingError("cannot create colour converter for the video writer");
 }
 

@@ -2,7 +2,6 @@
 
 #include <filesystem>
 #include <memory>
-
 #include <opencv2/core.hpp>
 
 namespace stemmap {
