@@ -13,10 +13,10 @@ namespace stemmap::sim {
 namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
-constexpr double kBelowGroundM = 0.6;   // stems reach below the surface so slopes leave no gap
-constexpr double kFurrowWidth = 0.18;   // furrow half-width as a share of one plate
+constexpr double kBelowGroundM = 0.6;  // stems reach below the surface so slopes leave no gap
+constexpr double kFurrowWidth = 0.18;  // furrow half-width as a share of one plate
 constexpr double kCrackWidth = 0.04;
-constexpr double kPlateLengthM = 0.09;
+constexpr double kPlateLengthM = 0.2;
 
 // Entry and exit of a ray with the infinite cylinder x^2 + y^2 = r^2 (stem frame).
 bool CylinderSpan(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r, double* t0,
@@ -41,9 +41,9 @@ bool CylinderSpan(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double r, 
 }  // namespace
 
 Stem::Stem(const StemParams& p) : p_(p), noise_(p.seed) {
-  axis_world_ = Eigen::Vector3d(std::sin(p.lean_rad) * std::cos(p.lean_azimuth_rad),
-                                std::sin(p.lean_rad) * std::sin(p.lean_azimuth_rad),
-                                std::cos(p.lean_rad));
+  axis_world_ =
+      Eigen::Vector3d(std::sin(p.lean_rad) * std::cos(p.lean_azimuth_rad),
+                      std::sin(p.lean_rad) * std::sin(p.lean_azimuth_rad), std::cos(p.lean_rad));
   world_from_stem_ = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis_world_);
   a_unit_ = 2.0 / (1.0 + p.axis_ratio);
   b_unit_ = p.axis_ratio * a_unit_;
@@ -51,8 +51,9 @@ Stem::Stem(const StemParams& p) : p_(p), noise_(p.seed) {
   sin_ell_ = std::sin(p.ellipse_azimuth_rad);
   n_furrows_ = static_cast<int>(
       std::clamp(std::round(kTwoPi * p.radius_bh_m / p.furrow_spacing_m), 6.0, 500.0));
+  // The furrow warp steepens the relief about as much as the furrows themselves.
   const double relief_slope_per_rad =
-      p.furrow_depth_m * 1.3 * n_furrows_ / (kFurrowWidth * kTwoPi);
+      p.furrow_depth_m * 1.3 * (n_furrows_ + 30) / (kFurrowWidth * kTwoPi);
   const double r_min = std::max(0.01, MeanRadius(std::min(p.height_m, 4.0)));
   march_lipschitz_ = 1.3 + relief_slope_per_rad / r_min;
 }
@@ -77,7 +78,7 @@ double Stem::TurnFraction(double x, double y) {
 
 double Stem::Relief(double u, double s) const {
   // Furrows wander: a smooth, azimuth-periodic warp of the plate coordinate.
-  const double warp = 0.8 * noise_.Noise2PeriodicX(u * 5.0, 0.8 * s, 5);
+  const double warp = 1.6 * noise_.Noise2PeriodicX(u * 5.0, 1.5 * s, 5);
   const double uf = u * n_furrows_ + warp;
   const double cell = uf - std::floor(uf);
   const double d_furrow = std::min(cell, 1.0 - cell);
@@ -94,7 +95,7 @@ double Stem::Relief(double u, double s) const {
   const double vc = v - std::floor(v);
   const double d_crack = std::min(vc, 1.0 - vc);
   if (d_crack < kCrackWidth) {
-    relief = std::min(relief, -0.5 * p_.furrow_depth_m * (1.0 - d_crack / kCrackWidth));
+    relief = std::min(relief, -0.3 * p_.furrow_depth_m * (1.0 - d_crack / kCrackWidth));
   }
   return relief;
 }
@@ -232,8 +233,8 @@ Eigen::Vector3f Stem::Albedo(double u, double s) const {
   Eigen::Vector3f rgb = p_.bark_rgb * static_cast<float>(tint * (1.0 - 0.65 * furrow));
   // Pale lichen patches, more on plates than in furrows.
   const double l = noise_.Fbm2PeriodicX(u * 14.0, 5.0 * s + 40.0, 14, 2);
-  const double lichen_cover = std::clamp((l - (0.55 - 0.8 * p_.lichen)) * 6.0, 0.0, 1.0) *
-                              (1.0 - 0.5 * furrow);
+  const double lichen_cover =
+      std::clamp((l - (0.55 - 0.8 * p_.lichen)) * 6.0, 0.0, 1.0) * (1.0 - 0.5 * furrow);
   rgb = rgb * (1.0f - static_cast<float>(lichen_cover)) +
         Eigen::Vector3f(0.52f, 0.55f, 0.48f) * static_cast<float>(lichen_cover);
   // Moss around the base, patchy.
