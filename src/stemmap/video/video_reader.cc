@@ -5,6 +5,7 @@ extern "C" {
 #include <libavformat/avformat.h>
 #include <libavutil/display.h>
 #include <libavutil/imgutils.h>
+#include <libavutil/log.h>
 #include <libswscale/swscale.h>
 }
 
@@ -70,6 +71,8 @@ struct VideoReader::Impl {
 VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options)
     : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
+  // Problems surface as exceptions; FFmpeg's own chatter would bury the progress bar.
+  av_log_set_level(AV_LOG_ERROR);
   m.path = path;
   m.options = options;
   if (!fs::exists(path)) throw InputError(fmt::format("video {} does not exist", path.string()));

@@ -3,6 +3,7 @@
 extern "C" {
 #include <libavcodec/avcodec.h>
 #include <libavformat/avformat.h>
+#include <libavutil/log.h>
 #include <libavutil/opt.h>
 #include <libswscale/swscale.h>
 }
@@ -77,6 +78,8 @@ VideoWriter::VideoWriter(const fs::path& path, const VideoWriterOptions& options
     : impl_(std::make_unique<Impl>()) {
   options.Check();
   Impl& m = *impl_;
+  // Problems surface as exceptions; FFmpeg's own chatter would bury the progress bar.
+  av_log_set_level(AV_LOG_ERROR);
   m.path = path;
   m.options = options;
   if (path.has_parent_path()) fs::create_directories(path.parent_path());
