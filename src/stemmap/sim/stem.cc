@@ -193,19 +193,6 @@ std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
   return hit;
 }
 
-bool Stem::Blocks(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max) const {
-  const Eigen::Quaterniond stem_from_world = world_from_stem_.conjugate();
-  const Eigen::Vector3d os = stem_from_world * (o - p_.base_world);
-  const Eigen::Vector3d ds = stem_from_world * d;
-  // Closest approach of the ray to the axis, in the horizontal plane of the stem frame.
-  const double a = ds.x() * ds.x() + ds.y() * ds.y();
-  if (a < 1e-12) return false;
-  const double t = std::clamp(-(os.x() * ds.x() + os.y() * ds.y()) / a, 0.0, t_max);
-  const Eigen::Vector3d q = os + t * ds;
-  if (q.z() < -kBelowGroundM || q.z() > p_.height_m) return false;
-  return std::hypot(q.x(), q.y()) < MeanRadius(q.z());
-}
-
 double Stem::EnvelopeEntry(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
   const Eigen::Quaterniond stem_from_world = world_from_stem_.conjugate();
   const Eigen::Vector3d os = stem_from_world * (o - p_.base_world);

@@ -55,8 +55,6 @@ class Stem {
   // located to `tol_per_m` × t (a fraction of the pixel footprint is plenty).
   std::optional<StemHit> Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min,
                                    double t_max, double tol_per_m = 1e-5) const;
-  // True when the segment o + t d, t in (0, t_max), passes through the stem (for shadows).
-  bool Blocks(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max) const;
   // Entry distance of the ray into the stem's smooth envelope (no bark relief), or infinity.
   // Cheap enough to fill a shadow map.
   double EnvelopeEntry(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const;
