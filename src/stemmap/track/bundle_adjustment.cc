@@ -1,0 +1,212 @@
+#include "stemmap/track/bundle_adjustment.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <numeric>
+
+#include "stemmap/core/error.h"
+#include "stemmap/track/residuals.h"
+
+namespace stemmap::track {
+
+void BundleOptions::Check() const {
+  if (!(arm_radius_m > 0.05 && arm_radius_m < 5.0)) {
+    throw InputError(fmt::format("arm radius {} m is outside (0.05, 5) m", arm_radius_m));
+  }
+  if (!(sigma_radius_m > 0 && sigma_height_m > 0 && sigma_mount_deg > 0 && loss_px > 0)) {
+    throw InputError("bundle adjustment sigmas must be positive");
+  }
+  if (min_observations < 2) throw InputError("points need at least 2 observations");
+}
+
+std::string BundleSummary::BriefReport() const {
+  return fmt::format("{} points, {} observations ({} rejected), rms {:.2f} -> {:.2f} px, {} it{}",
+                     points, observations, rejected_observations, initial_rms_px, final_rms_px,
+                     iterations, converged ? "" : " (not converged)");
+}
+
+Eigen::Quaterniond NominalArmFromCam() {
+  Eigen::Matrix3d m;  // columns: camera x, y, z in arm axes (arm along +x, z up)
+  m << 0, 0, 1,       //
+      -1, 0, 0,       //
+      0, -1, 0;
+  return Eigen::Quaterniond(m);
+}
+
+void PlaceOnCircle(const std::vector<double>& phi, double radius_m, SparseMap* map) {
+  map->arm_from_cam = NominalArmFromCam();
+  map->cam_from_world.resize(phi.size());
+  map->centre_world.resize(phi.size());
+  for (size_t k = 0; k < phi.size(); ++k) {
+    const Eigen::Quaterniond rz(Eigen::AngleAxisd(phi[k], Eigen::Vector3d::UnitZ()));
+    map->cam_from_world[k] = (rz * map->arm_from_cam).conjugate();
+    map->centre_world[k] = radius_m * Eigen::Vector3d(std::cos(phi[k]), std::sin(phi[k]), 0.0);
+  }
+}
+
+double ReprojectionErrorPx(const SparseMap& map, const PinholeCamera& camera, int kf,
+                           const Eigen::Vector3d& x, const Eigen::Vector2d& px) {
+  const Eigen::Vector3d p = map.cam_from_world[kf] * (x - map.centre_world[kf]);
+  if (p.z() <= 1e-6) return 1e9;
+  const Eigen::Vector3d ray = camera.CamRayFromImage(px);
+  return camera.fx * (p.head<2>() / p.z() - ray.head<2>()).norm();
+}
+
+int TriangulateTracks(const BundleOptions& o, const std::vector<Track>& tracks,
+                      const PinholeCamera& camera, SparseMap* map) {
+  const size_t n = tracks.size();
+  map->point_world.resize(n, Eigen::Vector3d::Zero());
+  map->point_valid.resize(n, 0);
+  map->obs_valid.resize(n);
+  const double min_angle = o.min_triangulation_deg * M_PI / 180.0;
+  int made = 0;
+  for (size_t t = 0; t < n; ++t) {
+    const std::vector<Observation>& obs = tracks[t].obs;
+    if (map->obs_valid[t].size() != obs.size()) map->obs_valid[t].assign(obs.size(), 1);
+    if (map->point_valid[t] || static_cast<int>(obs.size()) < o.min_observations) continue;
+    // Midpoint of the rays: argmin_X sum |(I - d d^T)(X - c)|^2.
+    Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    Eigen::Vector3d d_first = Eigen::Vector3d::Zero();
+    double max_angle = 0.0;
+    int used = 0;
+    for (size_t k = 0; k < obs.size(); ++k) {
+      if (!map->obs_valid[t][k]) continue;
+      const int kf = obs[k].keyframe;
+      const Eigen::Vector3d d =
+          (map->cam_from_world[kf].conjugate() * camera.CamRayFromImage(obs[k].px)).normalized();
+      const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
+      a += p;
+      b += p * map->centre_world[kf];
+      if (used == 0) d_first = d;
+      max_angle = std::max(max_angle, std::acos(std::clamp(d.dot(d_first), -1.0, 1.0)));
+      ++used;
+    }
+    if (used < o.min_observations || max_angle < min_angle) continue;
+    const Eigen::Vector3d x = a.ldlt().solve(b);
+    if (!x.allFinite()) continue;
+    int good = 0;
+    for (size_t k = 0; k < obs.size(); ++k) {
+      if (!map->obs_valid[t][k]) continue;
+      const double e = ReprojectionErrorPx(*map, camera, obs[k].keyframe, x, obs[k].px);
+      if (e < 3.0 * o.outlier_px) ++good;
+    }
+    if (good < o.min_observations) continue;
+    map->point_world[t] = x;
+    map->point_valid[t] = 1;
+    ++made;
+  }
+  return made;
+}
+
+namespace {
+
+// Tracks kept in the problem: the longest first, up to max_points.
+std::vector<int> SelectPoints(const BundleOptions& o, const std::vector<Track>& tracks,
+                              const SparseMap& map) {
+  std::vector<int> ids;
+  for (size_t t = 0; t < tracks.size(); ++t) {
+    if (map.point_valid[t]) ids.push_back(static_cast<int>(t));
+  }
+  std::stable_sort(ids.begin(), ids.end(),
+                   [&](int a, int b) { return tracks[a].obs.size() > tracks[b].obs.size(); });
+  if (static_cast<int>(ids.size()) > o.max_points) ids.resize(o.max_points);
+  std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
+double RmsPx(const std::vector<Track>& tracks, const std::vector<int>& ids,
+             const PinholeCamera& camera, const SparseMap& map, int* count) {
+  double sq = 0.0;
+  int n = 0;
+  for (int t : ids) {
+    for (size_t k = 0; k < tracks[t].obs.size(); ++k) {
+      if (!map.obs_valid[t][k]) continue;
+      const double e = ReprojectionErrorPx(map, camera, tracks[t].obs[k].keyframe,
+                                           map.point_world[t], tracks[t].obs[k].px);
+      sq += std::min(e * e, 1e4);
+      ++n;
+    }
+  }
+  if (count) *count = n;
+  return n ? std::sqrt(sq / n) : 0.0;
+}
+
+}  // namespace
+
+BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Track>& tracks,
+                                  const PinholeCamera& camera, SparseMap* map) {
+  o.Check();
+  BundleSummary s;
+  const std::vector<int> ids = SelectPoints(o, tracks, *map);
+  s.initial_rms_px = RmsPx(tracks, ids, camera, *map, nullptr);
+
+  ceres::Problem::Options po;
+  po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  ceres::EigenQuaternionManifold quaternion_manifold;
+  const int n_kf = static_cast<int>(map->centre_world.size());
+  ceres::LossFunction* reprojection_loss = new ceres::HuberLoss(o.loss_px);
+  ceres::LossFunction* prior_loss = new ceres::HuberLoss(3.0);
+  std::vector<char> kf_used(n_kf, 0);
+  for (int t : ids) {
+    for (size_t k = 0; k < tracks[t].obs.size(); ++k) {
+      if (!map->obs_valid[t][k]) continue;
+      const Observation& ob = tracks[t].obs[k];
+      const Eigen::Vector3d ray = camera.CamRayFromImage(ob.px);
+      problem.AddResidualBlock(ReprojectionError::Create(ray.head<2>(), camera.fx),
+                               reprojection_loss, map->cam_from_world[ob.keyframe].coeffs().data(),
+                               map->centre_world[ob.keyframe].data(), map->point_world[t].data());
+      kf_used[ob.keyframe] = 1;
+      ++s.observations;
+    }
+    ++s.points;
+  }
+  for (int k = 0; k < n_kf; ++k) {
+    double* q = map->cam_from_world[k].coeffs().data();
+    double* c = map->centre_world[k].data();
+    problem.AddResidualBlock(
+        CirclePriorError::Create(o.arm_radius_m, o.sigma_radius_m, o.sigma_height_m), prior_loss,
+        c);
+    problem.AddResidualBlock(MountPriorError::Create(o.sigma_mount_deg * M_PI / 180.0), prior_loss,
+                             q, c, map->arm_from_cam.coeffs().data());
+    problem.SetManifold(q, &quaternion_manifold);
+  }
+  problem.SetManifold(map->arm_from_cam.coeffs().data(), &quaternion_manifold);
+  problem.AddResidualBlock(YawGaugeError::Create(), nullptr, map->centre_world[0].data());
+
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_SCHUR;
+  so.num_threads = o.threads;
+  so.max_num_iterations = o.max_iterations;
+  so.function_tolerance = 1e-6;
+  so.logging_type = ceres::SILENT;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  s.iterations = static_cast<int>(summary.iterations.size());
+  s.converged = summary.termination_type == ceres::CONVERGENCE;
+  spdlog::debug("bundle adjustment: {}", summary.BriefReport());
+
+  // Drop what the solution cannot explain.
+  for (int t : ids) {
+    int good = 0;
+    for (size_t k = 0; k < tracks[t].obs.size(); ++k) {
+      if (!map->obs_valid[t][k]) continue;
+      const double e = ReprojectionErrorPx(*map, camera, tracks[t].obs[k].keyframe,
+                                           map->point_world[t], tracks[t].obs[k].px);
+      if (e > o.outlier_px) {
+        map->obs_valid[t][k] = 0;
+        ++s.rejected_observations;
+      } else {
+        ++good;
+      }
+    }
+    if (good < 2) map->point_valid[t] = 0;
+  }
+  s.final_rms_px = RmsPx(tracks, ids, camera, *map, nullptr);
+  return s;
+}
+
+}  // namespace stemmap::track

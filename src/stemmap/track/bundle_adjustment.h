@@ -1,0 +1,65 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/track/frontend.h"
+
+namespace stemmap::track {
+
+// Keyframe poses and track points in the axis frame: origin at the centre of the arm circle,
+// z along the rotation axis, camera centres near radius R in the plane z = 0.
+struct SparseMap {
+  std::vector<Eigen::Quaterniond> cam_from_world;
+  std::vector<Eigen::Vector3d> centre_world;
+  Eigen::Quaterniond arm_from_cam = Eigen::Quaterniond::Identity();  // the phone's mount
+  std::vector<Eigen::Vector3d> point_world;                          // one per track
+  std::vector<char> point_valid;             // 0 for tracks not (or no longer) triangulated
+  std::vector<std::vector<char>> obs_valid;  // per track and observation: 0 once rejected
+};
+
+struct BundleOptions {
+  double arm_radius_m = 1.0;
+  double sigma_radius_m = 0.01;  // how far the stand lets the camera leave the circle
+  double sigma_height_m = 0.01;
+  double sigma_mount_deg = 0.7;  // wobble of the phone on the arm
+  double loss_px = 1.5;          // Huber threshold of the reprojection error
+  double outlier_px = 3.0;       // observations above this are dropped between rounds
+  double min_triangulation_deg = 1.0;
+  int min_observations = 3;
+  int max_points = 6000;
+  int max_iterations = 40;
+  int threads = 2;
+  void Check() const;
+};
+
+struct BundleSummary {
+  int points = 0, observations = 0, rejected_observations = 0, iterations = 0;
+  double initial_rms_px = 0.0, final_rms_px = 0.0;
+  bool converged = false;
+  std::string BriefReport() const;
+};
+
+// Nominal mount: camera looking outward along the arm, image x pointing against the turn.
+Eigen::Quaterniond NominalArmFromCam();
+
+// Poses on the circle at arm angles `phi_rad` with the nominal mount.
+void PlaceOnCircle(const std::vector<double>& phi_rad, double radius_m, SparseMap* map);
+
+// (Re)triangulates every track whose point is not valid, from the current poses.
+int TriangulateTracks(const BundleOptions& o, const std::vector<Track>& tracks,
+                      const PinholeCamera& camera, SparseMap* map);
+
+// Circle-constrained bundle adjustment over all keyframes and points; then drops observations
+// with errors above `outlier_px` and points left with too few of them.
+BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Track>& tracks,
+                                  const PinholeCamera& camera, SparseMap* map);
+
+// Reprojection error (px) of one observation under the current map.
+double ReprojectionErrorPx(const SparseMap& map, const PinholeCamera& camera, int keyframe,
+                           const Eigen::Vector3d& point_world, const Eigen::Vector2d& px);
+
+}  // namespace stemmap::track

@@ -1,0 +1,206 @@
+#include "stemmap/track/frontend.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include "stemmap/core/error.h"
+#include "stemmap/core/progress.h"
+
+namespace stemmap::track {
+
+void FrontendOptions::Check() const {
+  if (working_long_side_px < 160) {
+    throw InputError(
+        fmt::format("working resolution {} px is too small (>= 160)", working_long_side_px));
+  }
+  if (!(track_fps > 0)) throw InputError("track fps must be positive");
+  if (max_features < 50) throw InputError("max features must be at least 50");
+  if (!(keyframe_step_deg > 0.2 && keyframe_step_deg < 20)) {
+    throw InputError(fmt::format("keyframe step {}° must lie in (0.2, 20)", keyframe_step_deg));
+  }
+}
+
+namespace {
+
+struct Tracker {
+  Tracker(const FrontendOptions& options, const PinholeCamera& cam) : o(options), camera(cam) {}
+  const FrontendOptions& o;
+  const PinholeCamera& camera;
+  std::vector<cv::Point2f> pts;    // alive points in the current tracked frame
+  std::vector<int> ids;            // their track ids
+  std::vector<cv::Point2f> at_kf;  // their position at the last keyframe (x < 0: born later)
+  std::vector<std::vector<Observation>> tracks;
+  size_t alive_at_kf = 0;
+
+  double AzimuthRad(const cv::Point2f& p) const { return std::atan((p.x - camera.cx) / camera.fx); }
+
+  // Median apparent rotation (rad) of the points seen at the last keyframe.
+  double RotationSinceKeyframe(size_t* n_common) const {
+    std::vector<double> d;
+    for (size_t i = 0; i < pts.size(); ++i) {
+      if (at_kf[i].x >= 0) d.push_back(AzimuthRad(pts[i]) - AzimuthRad(at_kf[i]));
+    }
+    *n_common = d.size();
+    if (d.empty()) return 0.0;
+    std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+    return d[d.size() / 2];
+  }
+
+  void Seed(const cv::Mat& gray) {
+    const int want = o.max_features - static_cast<int>(pts.size());
+    if (want < o.max_features / 8) return;
+    cv::Mat mask(gray.size(), CV_8U, cv::Scalar(255));
+    for (const cv::Point2f& p : pts) {
+      cv::circle(mask, p, static_cast<int>(o.min_feature_distance_px), cv::Scalar(0), -1);
+    }
+    std::vector<cv::Point2f> fresh;
+    cv::goodFeaturesToTrack(gray, fresh, want, o.feature_quality, o.min_feature_distance_px, mask,
+                            5);
+    for (const cv::Point2f& p : fresh) {
+      pts.push_back(p);
+      ids.push_back(static_cast<int>(tracks.size()));
+      at_kf.emplace_back(-1.f, -1.f);
+      tracks.emplace_back();
+    }
+  }
+
+  void RecordKeyframe(int kf) {
+    for (size_t i = 0; i < pts.size(); ++i) {
+      tracks[ids[i]].push_back({kf, Eigen::Vector2d(pts[i].x, pts[i].y)});
+      at_kf[i] = pts[i];
+    }
+    alive_at_kf = pts.size();
+  }
+};
+
+// Line segments at half resolution (trunk edges are long, so little is lost), kept when long and
+// within a few degrees of the image vertical.
+std::vector<cv::Vec4f> VerticalSegments(const FrontendOptions& o, const cv::Mat& gray,
+                                        cv::LineSegmentDetector* lsd) {
+  cv::Mat half;
+  cv::resize(gray, half, cv::Size(), 0.5, 0.5, cv::INTER_AREA);
+  std::vector<cv::Vec4f> lines, out;
+  lsd->detect(half, lines);
+  const double min_len = o.segment_min_length * half.rows;
+  const double max_tan = std::tan(o.segment_max_tilt_deg * M_PI / 180.0);
+  for (const cv::Vec4f& l : lines) {
+    const double dx = l[2] - l[0], dy = l[3] - l[1];
+    if (std::hypot(dx, dy) < min_len || std::abs(dx) > max_tan * std::abs(dy)) continue;
+    // Back to working pixels (pixel centres at integers).
+    out.emplace_back(2 * l[0] + 0.5f, 2 * l[1] + 0.5f, 2 * l[2] + 0.5f, 2 * l[3] + 0.5f);
+  }
+  return out;
+}
+
+}  // namespace
+
+FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
+                           const PinholeCamera& camera) {
+  o.Check();
+  FrontendResult r;
+  r.info = reader.info();
+  const double fps = r.info.fps > 0 ? r.info.fps : 30.0;
+  const int stride = std::max(1, static_cast<int>(std::lround(fps / o.track_fps)));
+  const double step_rad = o.keyframe_step_deg * M_PI / 180.0;
+  const cv::Size win(o.lk_window_px, o.lk_window_px);
+  const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
+  cv::Ptr<cv::ORB> orb = cv::ORB::create(o.orb_features);
+  cv::Ptr<cv::LineSegmentDetector> lsd = cv::createLineSegmentDetector(cv::LSD_REFINE_NONE);
+
+  Tracker tr(o, camera);
+  std::vector<cv::Mat> prev_pyr, pyr;
+  cv::Mat gray;
+  int64_t tracked_frames = 0;
+  double tracked_sum = 0.0;
+  Progress progress("tracking", std::max<int64_t>(1, r.info.frame_count));
+
+  auto add_keyframe = [&](int frame, double t_s) {
+    Keyframe kf;
+    kf.frame = frame;
+    kf.t_s = t_s;
+    orb->detectAndCompute(gray, cv::noArray(), kf.orb_keypoints, kf.orb_descriptors);
+    kf.vertical_segments = VerticalSegments(o, gray, lsd.get());
+    r.keyframes.push_back(std::move(kf));
+    tr.Seed(gray);
+    tr.RecordKeyframe(static_cast<int>(r.keyframes.size()) - 1);
+  };
+
+  int last_tracked = -1;
+  double last_t = 0.0;
+  while (std::optional<DecodedFrame> f = reader.Next()) {
+    const int fi = static_cast<int>(r.frame_t_s.size());
+    r.frame_t_s.push_back(f->t_s);
+    progress.Update(fi + 1);
+    if (fi % stride != 0) continue;
+    cv::cvtColor(f->bgr, gray, cv::COLOR_BGR2GRAY);
+    if (r.working_size.empty()) r.working_size = gray.size();
+    if (cv::mean(gray)[0] < o.dark_mean_luma) ++r.dark_frames;
+    cv::buildOpticalFlowPyramid(gray, pyr, win, o.lk_levels);
+    ++tracked_frames;
+    last_tracked = fi;
+    last_t = f->t_s;
+    if (prev_pyr.empty()) {
+      add_keyframe(fi, f->t_s);
+      std::swap(prev_pyr, pyr);
+      continue;
+    }
+    std::vector<cv::Point2f> next, back;
+    std::vector<uchar> st, st_back;
+    std::vector<float> err;
+    if (!tr.pts.empty()) {
+      cv::calcOpticalFlowPyrLK(prev_pyr, pyr, tr.pts, next, st, err, win, o.lk_levels, term);
+      back = tr.pts;
+      cv::calcOpticalFlowPyrLK(pyr, prev_pyr, next, back, st_back, err, win, o.lk_levels, term,
+                               cv::OPTFLOW_USE_INITIAL_FLOW);
+    }
+    size_t k = 0;
+    for (size_t i = 0; i < tr.pts.size(); ++i) {
+      const cv::Point2f& p = next[i];
+      const bool inside = p.x >= 2 && p.y >= 2 && p.x < gray.cols - 3 && p.y < gray.rows - 3;
+      if (!st[i] || !st_back[i] || !inside ||
+          cv::norm(back[i] - tr.pts[i]) > o.max_forward_backward_px) {
+        continue;
+      }
+      tr.pts[k] = p;
+      tr.ids[k] = tr.ids[i];
+      tr.at_kf[k] = tr.at_kf[i];
+      ++k;
+    }
+    tr.pts.resize(k);
+    tr.ids.resize(k);
+    tr.at_kf.resize(k);
+    tracked_sum += k;
+    std::swap(prev_pyr, pyr);
+
+    size_t n_common = 0;
+    const double rot = tr.RotationSinceKeyframe(&n_common);
+    if (n_common < 15 && tr.alive_at_kf >= 15) {
+      ++r.reseeds_for_loss;
+      spdlog::debug("tracking: most points lost at t={:.2f} s", f->t_s);
+    }
+    if (std::abs(rot) >= step_rad || n_common < tr.alive_at_kf / 2 || n_common < 40) {
+      add_keyframe(fi, f->t_s);
+    }
+  }
+  progress.Finish();
+  if (r.frame_t_s.empty()) throw InputError("the video has no decodable frame");
+  // The last tracked frame closes the sequence as a keyframe so the trajectory covers it.
+  if (last_tracked >= 0 && r.keyframes.back().frame != last_tracked) {
+    add_keyframe(last_tracked, last_t);
+  }
+  r.corrupt_packets = reader.corrupt_packets();
+  r.tracked_frames = static_cast<int>(tracked_frames);
+  r.mean_tracked_points = tracked_frames > 1 ? tracked_sum / (tracked_frames - 1) : 0.0;
+  for (std::vector<Observation>& obs : tr.tracks) {
+    if (obs.size() >= 2) r.tracks.push_back({std::move(obs)});
+  }
+  return r;
+}
+
+}  // namespace stemmap::track

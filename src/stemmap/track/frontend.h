@@ -1,0 +1,67 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/video/video_reader.h"
+
+namespace stemmap::track {
+
+// Feature tracking over the whole video: KLT tracks between tracked frames, recorded at keyframes
+// chosen by rotation; ORB features at keyframes for loop closure.
+struct FrontendOptions {
+  int working_long_side_px = 960;  // tracking resolution
+  double track_fps = 15.0;         // frames tracked per second; the rest are only decoded
+  int max_features = 500;          // KLT points alive at once
+  double min_feature_distance_px = 14.0;
+  double feature_quality = 0.003;  // goodFeaturesToTrack quality level
+  int lk_window_px = 21;
+  int lk_levels = 3;
+  double max_forward_backward_px = 0.8;  // KLT consistency check
+  double keyframe_step_deg = 2.0;        // apparent rotation between keyframes
+  int orb_features = 800;                // per keyframe, for loop closure
+  double dark_mean_luma = 20.0;          // frames darker than this (0-255) count as dark
+  double segment_min_length = 0.2;       // vertical segments: shortest, as a share of height
+  double segment_max_tilt_deg = 15.0;    // and furthest from the image vertical
+  void Check() const;
+};
+
+struct Observation {
+  int keyframe = 0;
+  Eigen::Vector2d px;  // working-resolution pixel
+};
+
+struct Track {
+  std::vector<Observation> obs;  // ordered by keyframe
+};
+
+struct Keyframe {
+  int frame = 0;  // index into FrontendResult::frame_t_s
+  double t_s = 0.0;
+  std::vector<cv::KeyPoint> orb_keypoints;
+  cv::Mat orb_descriptors;
+  // Long near-vertical line segments (x0, y0, x1, y1, working px): trunk edges, for "up".
+  std::vector<cv::Vec4f> vertical_segments;
+};
+
+struct FrontendResult {
+  VideoInfo info;
+  int corrupt_packets = 0;
+  int tracked_frames = 0;
+  int dark_frames = 0;
+  cv::Size working_size;
+  std::vector<double> frame_t_s;  // every decoded frame
+  std::vector<Keyframe> keyframes;
+  std::vector<Track> tracks;  // only tracks seen in two or more keyframes
+  double mean_tracked_points = 0.0;
+  int reseeds_for_loss = 0;  // times the tracker lost most points and started over
+};
+
+// Reads the remaining frames of `reader` (opened at the working resolution) and tracks features.
+// `camera` is the working-resolution camera. Throws InputError when no frame can be decoded.
+FrontendResult RunFrontend(const FrontendOptions& options, VideoReader& reader,
+                           const PinholeCamera& camera);
+
+}  // namespace stemmap::track

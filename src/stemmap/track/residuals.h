@@ -1,0 +1,114 @@
+#pragma once
+
+// Ceres residuals for the circle-constrained bundle adjustment. Poses are cam_from_world
+// rotations (Eigen quaternion, x y z w storage) with camera centres in the axis frame: origin at
+// the centre of the arm circle, z along the rotation axis.
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace stemmap::track {
+
+// Reprojection error in pixels of a world point X seen at normalised image point (u, v):
+//   P = cam_from_world * (X - c),   r = f * (P.x / P.z - u, P.y / P.z - v).
+// f turns normalised units into pixels so robust-loss thresholds read in pixels.
+struct ReprojectionError {
+  ReprojectionError(const Eigen::Vector2d& uv, double focal_px) : uv_(uv), f_(focal_px) {}
+
+  template <typename T>
+  bool operator()(const T* q_cam_from_world, const T* c_world, const T* x_world, T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q(q_cam_from_world);
+    const Eigen::Map<const Eigen::Matrix<T, 3, 1>> c(c_world), x(x_world);
+    const Eigen::Matrix<T, 3, 1> p = q * (x - c);
+    if (p.z() < T(1e-6)) {  // behind the camera: a large, smooth penalty instead of a failure
+      r[0] = T(f_) * (p.z() - T(1e-6)) * T(-100);
+      r[1] = T(0);
+      return true;
+    }
+    r[0] = T(f_) * (p.x() / p.z() - T(uv_.x()));
+    r[1] = T(f_) * (p.y() / p.z() - T(uv_.y()));
+    return true;
+  }
+
+  static ceres::CostFunction* Create(const Eigen::Vector2d& uv, double focal_px) {
+    return new ceres::AutoDiffCostFunction<ReprojectionError, 2, 4, 3, 3>(
+        new ReprojectionError(uv, focal_px));
+  }
+
+ private:
+  Eigen::Vector2d uv_;
+  double f_;
+};
+
+// Soft prior that the camera centre lies on the arm circle: radius R in the plane z = 0.
+//   r = ((|c_xy| - R) / sigma_radius, c_z / sigma_height).
+// Its radius term fixes the metric scale; a tilted stand or a flexing arm moves the centre off the
+// circle by about a centimetre, so sigma is of that order and the loss is robust.
+struct CirclePriorError {
+  CirclePriorError(double radius_m, double sigma_radius_m, double sigma_height_m)
+      : radius_(radius_m), sr_(sigma_radius_m), sz_(sigma_height_m) {}
+
+  template <typename T>
+  bool operator()(const T* c_world, T* r) const {
+    const T rho = ceres::sqrt(c_world[0] * c_world[0] + c_world[1] * c_world[1] + T(1e-12));
+    r[0] = (rho - T(radius_)) / T(sr_);
+    r[1] = c_world[2] / T(sz_);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(double radius_m, double sigma_radius_m,
+                                     double sigma_height_m) {
+    return new ceres::AutoDiffCostFunction<CirclePriorError, 2, 3>(
+        new CirclePriorError(radius_m, sigma_radius_m, sigma_height_m));
+  }
+
+ private:
+  double radius_, sr_, sz_;
+};
+
+// Soft prior that the phone is rigid on the arm: world_from_cam = Rz(phi) * mount, with
+// phi = atan2(c_y, c_x) the arm angle of the camera centre and `mount` one rotation shared by all
+// frames (arm_from_cam). r = log(expected^-1 * actual) / sigma (axis-angle vector, rad).
+struct MountPriorError {
+  explicit MountPriorError(double sigma_rad) : sigma_(sigma_rad) {}
+
+  template <typename T>
+  bool operator()(const T* q_cam_from_world, const T* c_world, const T* q_arm_from_cam,
+                  T* r) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q_cw(q_cam_from_world), q_mount(q_arm_from_cam);
+    const T phi = ceres::atan2(c_world[1], c_world[0]);
+    const Eigen::Quaternion<T> rz(ceres::cos(phi / T(2)), T(0), T(0), ceres::sin(phi / T(2)));
+    // expected^-1 * actual = (rz * mount)^-1 * q_cw^-1 = (q_cw * rz * mount)^-1
+    const Eigen::Quaternion<T> d = q_cw * rz * q_mount;
+    const T qd[4] = {d.w(), -d.x(), -d.y(), -d.z()};
+    T aa[3];
+    ceres::QuaternionToAngleAxis(qd, aa);
+    for (int i = 0; i < 3; ++i) r[i] = aa[i] / T(sigma_);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(double sigma_rad) {
+    return new ceres::AutoDiffCostFunction<MountPriorError, 3, 4, 3, 4>(
+        new MountPriorError(sigma_rad));
+  }
+
+ private:
+  double sigma_;
+};
+
+// Fixes the yaw gauge: the first camera centre lies on the +x axis (r = c_y / sigma).
+struct YawGaugeError {
+  template <typename T>
+  bool operator()(const T* c_world, T* r) const {
+    r[0] = c_world[1] / T(1e-3);
+    return true;
+  }
+  static ceres::CostFunction* Create() {
+    return new ceres::AutoDiffCostFunction<YawGaugeError, 1, 3>(new YawGaugeError);
+  }
+};
+
+}  // namespace stemmap::track

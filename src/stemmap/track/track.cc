@@ -1,0 +1,295 @@
+#include "stemmap/track/track.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <opencv2/core/persistence.hpp>
+
+#include "stemmap/core/error.h"
+#include "stemmap/core/io.h"
+#include "stemmap/track/plot_frame.h"
+#include "stemmap/track/rotation.h"
+#include "stemmap/track/track_io.h"
+
+namespace stemmap::track {
+
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+
+double WrapPi(double a) { return std::remainder(a, 2.0 * M_PI); }
+
+class Stopwatch {
+ public:
+  double Lap() {
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    return s;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point last_ = std::chrono::steady_clock::now();
+};
+
+// Loop error (deg): how far the trajectory's relative yaw at each revisit is from the measured one.
+double MeanLoopErrorDeg(const LoopResult& loop, const SparseMap& map) {
+  if (loop.pairs.empty()) return 0.0;
+  double sum = 0.0;
+  for (const LoopPair& p : loop.pairs) {
+    const Eigen::Matrix3d late_from_early =
+        (map.cam_from_world[p.late] * map.cam_from_world[p.early].conjugate()).toRotationMatrix();
+    sum += std::abs(WrapPi(YawOfRotation(late_from_early) - p.yaw_rad));
+  }
+  return sum / loop.pairs.size() / kDeg;
+}
+
+double MeanOdometryLoopErrorDeg(const LoopResult& loop, const std::vector<double>& turn) {
+  if (loop.pairs.empty()) return 0.0;
+  const double sign = turn.back() >= 0 ? 1.0 : -1.0;
+  double sum = 0.0;
+  for (const LoopPair& p : loop.pairs) {
+    sum += std::abs(turn[p.late] - turn[p.early] - (sign * 2.0 * M_PI + p.yaw_rad));
+  }
+  return sum / loop.pairs.size() / kDeg;
+}
+
+std::vector<StampedPose> InterpolateFrames(const std::vector<double>& frame_t_s,
+                                           const std::vector<StampedPose>& kf) {
+  std::vector<StampedPose> out(frame_t_s.size());
+  size_t k = 0;
+  for (size_t i = 0; i < frame_t_s.size(); ++i) {
+    const double t = frame_t_s[i];
+    while (k + 2 < kf.size() && kf[k + 1].t_s <= t) ++k;
+    const StampedPose &a = kf[k], &b = kf[std::min(k + 1, kf.size() - 1)];
+    double w = b.t_s > a.t_s ? (t - a.t_s) / (b.t_s - a.t_s) : 0.0;
+    w = std::clamp(w, 0.0, 1.0);
+    out[i].t_s = t;
+    out[i].world_from_cam.rotation = a.world_from_cam.rotation.slerp(w, b.world_from_cam.rotation);
+    out[i].world_from_cam.translation =
+        (1.0 - w) * a.world_from_cam.translation + w * b.world_from_cam.translation;
+  }
+  return out;
+}
+
+PinholeCamera WorkingCamera(const TrackOptions& o, const VideoInfo& info) {
+  const int long_side = std::max(info.width, info.height);
+  double s = 1.0;
+  const int max_side = o.frontend.working_long_side_px;
+  if (max_side > 0 && long_side > max_side) s = static_cast<double>(max_side) / long_side;
+  const int w = std::max(2, static_cast<int>(std::lround(info.width * s)));
+  const int h = std::max(2, static_cast<int>(std::lround(info.height * s)));
+  if (!o.calibration.empty()) return ReadCalibration(o.calibration, w, h);
+  return PinholeCamera::FromHfov(w, h, o.hfov_deg);
+}
+
+}  // namespace
+
+void TrackOptions::Check() const {
+  if (calibration.empty() && !(hfov_deg >= 20.0 && hfov_deg <= 150.0)) {
+    throw InputError(fmt::format("--hfov {}° is outside 20-150°", hfov_deg));
+  }
+  if (camera_height_m < 0 || camera_height_m > 3.0) {
+    throw InputError(fmt::format("--camera-height {} m is outside 0-3 m", camera_height_m));
+  }
+  if (bundle_rounds < 1) throw InputError("at least one bundle adjustment round is needed");
+  frontend.Check();
+  loop.Check();
+  BundleOptions b = bundle;
+  b.arm_radius_m = arm_radius_m;
+  b.Check();
+}
+
+PinholeCamera ReadCalibration(const std::filesystem::path& path, int width, int height) {
+  cv::FileStorage fs;
+  try {
+    fs.open(path.string(), cv::FileStorage::READ);
+  } catch (const cv::Exception& e) {
+    throw InputError(fmt::format("cannot read calibration {}: {}", path.string(), e.msg));
+  }
+  if (!fs.isOpened()) throw InputError(fmt::format("cannot open calibration {}", path.string()));
+  cv::Mat k, d;
+  int cw = 0, ch = 0;
+  fs["camera_matrix"] >> k;
+  fs["distortion_coefficients"] >> d;
+  fs["image_width"] >> cw;
+  fs["image_height"] >> ch;
+  if (k.rows != 3 || k.cols != 3 || cw <= 0 || ch <= 0) {
+    throw InputError(fmt::format(
+        "calibration {} needs camera_matrix (3x3), image_width and image_height", path.string()));
+  }
+  k.convertTo(k, CV_64F);
+  PinholeCamera c;
+  c.width = cw;
+  c.height = ch;
+  c.fx = k.at<double>(0, 0);
+  c.fy = k.at<double>(1, 1);
+  c.cx = k.at<double>(0, 2);
+  c.cy = k.at<double>(1, 2);
+  if (!d.empty()) {
+    d.convertTo(d, CV_64F);
+    d = d.reshape(1, static_cast<int>(d.total()));
+    c.k1 = d.at<double>(0);
+    if (d.total() > 1) c.k2 = d.at<double>(1);
+  }
+  c.Check();
+  if (std::abs(static_cast<double>(cw) / ch - static_cast<double>(width) / height) > 0.01) {
+    throw InputError(fmt::format("calibration {} is for {}x{}, the video is {}x{} (another shape)",
+                                 path.string(), cw, ch, width, height));
+  }
+  return c.Scaled(static_cast<double>(width) / cw);
+}
+
+std::string TrackResult::BriefReport() const {
+  return fmt::format(
+      "{} keyframes over {:.1f}°, loop error {:.2f}° -> {:.3f}° ({} revisits), rms {:.2f} px, "
+      "camera {:.3f} m above ground",
+      keyframes.size(), summary.value("turn_deg", 0.0), summary.value("loop_error_before_deg", 0.0),
+      summary.value("loop_error_after_deg", 0.0), summary.value("loop_pairs", 0),
+      summary.value("reprojection_rms_px", 0.0), summary.value("camera_height_m", 0.0));
+}
+
+TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
+                     const std::filesystem::path& out_dir) {
+  o.Check();
+  Stopwatch clock;
+  nlohmann::json timing;
+  TrackResult r;
+  VideoReaderOptions vro;
+  vro.max_long_side_px = o.frontend.working_long_side_px;
+  VideoReader reader(video, vro);
+  r.camera = WorkingCamera(o, reader.info());
+  spdlog::info("track: {}x{} {:.2f} fps {}, working {}x{}, hfov {:.1f}°", reader.info().width,
+               reader.info().height, reader.info().fps, reader.info().codec, r.camera.width,
+               r.camera.height, r.camera.HfovDeg());
+  FrontendResult f = RunFrontend(o.frontend, reader, r.camera);
+  timing["decode_and_klt_s"] = clock.Lap();
+  const int n_tracked = static_cast<int>(f.keyframes.empty() ? 0 : f.frame_t_s.size());
+  if (f.keyframes.size() < 3) {
+    throw InputError(fmt::format("the video is too short to track ({} frames)", n_tracked));
+  }
+  if (f.dark_frames > o.max_dark_share * f.tracked_frames) {
+    throw InputError(fmt::format("the video is too dark to track ({} of {} frames dark)",
+                                 f.dark_frames, f.tracked_frames));
+  }
+  const std::vector<double> inc = ApparentTurnIncrements(f, r.camera, 0.1, 15);
+  std::vector<double> turn(inc.size(), 0.0);
+  for (size_t k = 1; k < inc.size(); ++k) {
+    if (std::isnan(inc[k])) {
+      throw ProcessingError(fmt::format(
+          "tracking lost at t={:.1f} s: too few points followed between keyframes (covered "
+          "lens, blur or a scene without texture?)",
+          f.keyframes[k].t_s));
+    }
+    turn[k] = turn[k - 1] + inc[k];
+  }
+  LoopResult loop = FindLoops(o.loop, f, r.camera, turn);
+  timing["loop_detection_s"] = clock.Lap();
+  if (loop.pairs.empty()) {
+    throw InputError(fmt::format(
+        "the video does not return to its start: no revisit found after {:.0f}° of apparent "
+        "turn (one full turn of the arm is needed)",
+        std::abs(turn.back()) / kDeg));
+  }
+  const double to_true = 2.0 * M_PI / loop.apparent_per_turn_rad;
+  std::vector<double> phi(turn.size());
+  for (size_t k = 0; k < turn.size(); ++k) phi[k] = turn[k] * to_true;
+  const double turn_deg = std::abs(phi.back()) / kDeg;
+  if (turn_deg < o.min_turn_deg) {
+    throw InputError(
+        fmt::format("the video covers {:.0f}° of turn; one full turn is needed", turn_deg));
+  }
+  MergeLoopTracks(o.loop, f, loop);
+
+  SparseMap map;
+  BundleOptions bo = o.bundle;
+  bo.arm_radius_m = o.arm_radius_m;
+  PlaceOnCircle(phi, o.arm_radius_m, &map);
+  nlohmann::json rounds = nlohmann::json::array();
+  BundleSummary bs;
+  for (int round = 0; round < o.bundle_rounds; ++round) {
+    const int made = TriangulateTracks(bo, f.tracks, r.camera, &map);
+    bs = RunBundleAdjustment(bo, f.tracks, r.camera, &map);
+    spdlog::info("track: bundle adjustment {}/{}: {} (+{} points)", round + 1, o.bundle_rounds,
+                 bs.BriefReport(), made);
+    rounds.push_back(bs.BriefReport());
+  }
+  timing["bundle_adjustment_s"] = clock.Lap();
+
+  // Plot frame: up along the axis, origin on the ground below it.
+  std::vector<Eigen::Vector3d> pts_axis;
+  for (size_t t = 0; t < map.point_world.size(); ++t) {
+    if (map.point_valid[t]) pts_axis.push_back(map.point_world[t]);
+  }
+  const GroundFit ground = FitGround(pts_axis, 2.0, 12.0, 0.05, 7);
+  double ground_z = ground.found ? ground.height_at_axis_m : -1.3;
+  if (o.camera_height_m > 0) {
+    ground_z = -o.camera_height_m;
+  } else if (!ground.found) {
+    spdlog::warn(
+        "track: no ground plane found; assuming the camera at 1.3 m (give --camera-height)");
+  }
+  const Eigen::Vector3d forward0 = map.cam_from_world[0].conjugate() * Eigen::Vector3d::UnitZ();
+  const VerticalEstimate vertical =
+      EstimateVertical(o.vertical, f.keyframes, f.tracks, map, r.camera);
+  if (!vertical.found) {
+    spdlog::warn("track: too few trunk edges to find the vertical; using the rotation axis");
+  }
+  r.plot_from_axis = PlotFromAxis(vertical.up_axis, ground_z, forward0);
+  timing["plot_frame_s"] = clock.Lap();
+  for (size_t k = 0; k < map.centre_world.size(); ++k) {
+    const Rigid3d axis_from_cam{map.cam_from_world[k].conjugate(), map.centre_world[k]};
+    r.keyframes.push_back({f.keyframes[k].t_s, r.plot_from_axis * axis_from_cam});
+  }
+  for (const Eigen::Vector3d& p : pts_axis) r.points_plot.push_back(r.plot_from_axis * p);
+  r.frames = InterpolateFrames(f.frame_t_s, r.keyframes);
+
+  double r_fit = 0.0;
+  for (const Eigen::Vector3d& c : map.centre_world) r_fit += c.head<2>().norm();
+  r_fit /= map.centre_world.size();
+  nlohmann::json& s = r.summary;
+  s["video"] = {{"width", f.info.width},
+                {"height", f.info.height},
+                {"fps", f.info.fps},
+                {"codec", f.info.codec},
+                {"frames", f.frame_t_s.size()},
+                {"rotation_deg", f.info.rotation_deg},
+                {"corrupt_packets", f.corrupt_packets},
+                {"dark_frames", f.dark_frames}};
+  s["camera"] = r.camera;
+  s["keyframes"] = f.keyframes.size();
+  s["tracks"] = f.tracks.size();
+  s["mean_tracked_points"] = f.mean_tracked_points;
+  s["turn_deg"] = turn_deg;
+  s["direction"] = phi.back() >= 0 ? "counter-clockwise" : "clockwise";
+  s["apparent_turn_factor"] = loop.apparent_per_turn_rad / (2.0 * M_PI);
+  s["loop_pairs"] = loop.pairs.size();
+  s["loop_merged_tracks"] = loop.merged_tracks + loop.extended_tracks;
+  s["loop_error_before_deg"] = MeanOdometryLoopErrorDeg(loop, turn);
+  s["loop_error_after_deg"] = MeanLoopErrorDeg(loop, map);
+  s["loop_closed"] = !loop.pairs.empty() && s["loop_error_after_deg"].get<double>() < 0.2;
+  s["bundle_adjustment"] = rounds;
+  s["reprojection_rms_px"] = bs.final_rms_px;
+  s["points"] = pts_axis.size();
+  s["arm_radius_m"] = o.arm_radius_m;
+  s["circle_fit_radius_m"] = r_fit;
+  s["paper_scale_factor"] = o.arm_radius_m / r_fit;  // r_real / r_est, as in the paper
+  s["ground_found"] = ground.found;
+  s["ground_slope_deg"] = ground.slope_deg;
+  s["camera_height_m"] = -ground_z;
+  s["camera_height_source"] = o.camera_height_m > 0 ? "measured" : "estimated";
+  s["camera_height_estimated_m"] = ground.found ? -ground.height_at_axis_m : 0.0;
+  s["vertical_found"] = vertical.found;
+  s["vertical_segments"] = vertical.segments;
+  s["vertical_trunks"] = vertical.trunks;
+  s["stand_tilt_deg"] = vertical.tilt_deg;
+  s["timing_s"] = timing;
+
+  WriteTrackOutputs(out_dir, r, ToJson(o));
+  s["timing_s"]["write_s"] = clock.Lap();
+  return r;
+}
+
+}  // namespace stemmap::track

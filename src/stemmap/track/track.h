@@ -1,0 +1,62 @@
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
+#include "stemmap/track/bundle_adjustment.h"
+#include "stemmap/track/frontend.h"
+#include "stemmap/track/loop_closure.h"
+#include "stemmap/track/vertical.h"
+
+namespace stemmap::track {
+
+// Field of view assumed when neither --hfov nor --calibration is given: the main camera of
+// current phones filming 16:9 video (measure yours with `stemmap calibrate` for best results).
+inline constexpr double kDefaultPhoneHfovDeg = 68.0;
+
+struct TrackOptions {
+  double arm_radius_m = 1.0;
+  double hfov_deg = kDefaultPhoneHfovDeg;  // used when `calibration` is empty
+  std::filesystem::path calibration;       // OpenCV YAML from `stemmap calibrate`
+  // Arm height above the ground at the tripod, measured with a tape (m). 0: estimate it from the
+  // ground seen around the plot, which misses any bump right under the tripod (the camera faces
+  // outward and sees the ground only from ~4 m out).
+  double camera_height_m = 0.0;
+  double min_turn_deg = 355.0;  // less than this is not a full turn
+  double max_dark_share = 0.5;  // more dark frames than this: too dark
+  int bundle_rounds = 3;
+  FrontendOptions frontend;
+  LoopOptions loop;
+  VerticalOptions vertical;
+  BundleOptions bundle;
+  void Check() const;
+};
+
+// Reads the camera from an OpenCV YAML file (camera_matrix, distortion_coefficients,
+// image_width, image_height) and scales it to `width` x `height` (same aspect ratio required).
+PinholeCamera ReadCalibration(const std::filesystem::path& path, int width, int height);
+
+struct TrackResult {
+  PinholeCamera camera;                // working resolution
+  std::vector<StampedPose> frames;     // every decoded frame, world_from_cam in the plot frame
+  std::vector<StampedPose> keyframes;  // the adjusted keyframes, plot frame
+  std::vector<Eigen::Vector3d> points_plot;
+  Rigid3d plot_from_axis;
+  nlohmann::json summary;  // tracking quality, loop, scale, timings
+  std::string BriefReport() const;
+};
+
+// `stemmap track`: camera trajectory with metric scale from the arm radius. Writes
+// OUT/trajectory.tum, OUT/keyframes.tum, OUT/sparse.ply, OUT/track_summary.json and
+// OUT/track_options.json. Throws InputError for unreadable, too dark or too short videos and
+// ProcessingError when tracking cannot be recovered.
+TrackResult RunTrack(const TrackOptions& options, const std::filesystem::path& video,
+                     const std::filesystem::path& out_dir);
+
+nlohmann::json ToJson(const TrackOptions& options);
+
+}  // namespace stemmap::track
