@@ -1,0 +1,121 @@
+// End to end: simulate short captures and track them; bad videos fail with a clear error.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "stemmap/core/error.h"
+#include "stemmap/core/io.h"
+#include "stemmap/eval/evaluate.h"
+#include "stemmap/eval/plot_io.h"
+#include "stemmap/sim/simulate.h"
+#include "stemmap/track/track.h"
+#include "stemmap/video/video_writer.h"
+
+namespace stemmap {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path TestDir(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("stemmap_track_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  return dir;
+}
+
+sim::SimulateOptions ShortPlot(const fs::path& dir, double turns) {
+  sim::SimulateOptions o;
+  o.seed = 4;
+  o.kind = sim::StandKind::kManaged;
+  o.out_dir = dir;
+  o.width = 480;
+  o.height = 270;
+  o.fps = 10;
+  o.seconds = 9;
+  o.turns = turns;
+  o.stills = 0;
+  return o;
+}
+
+// The simulated camera, as a user would pass their calibration.
+track::TrackOptions OptionsFromTruth(const fs::path& truth_json) {
+  const nlohmann::json t = ReadJsonFile(truth_json);
+  track::TrackOptions o;
+  o.arm_radius_m = t["arm_radius_m"];
+  o.hfov_deg = t["intrinsics"]["hfov_deg"];
+  o.camera_height_m = t["camera_height_m"];
+  return o;
+}
+
+TEST(TrackEndToEnd, RecoversTheSimulatedTrajectory) {
+  const fs::path dir = TestDir("ok");
+  sim::RunSimulate(ShortPlot(dir, 1.1));
+  const track::TrackOptions o = OptionsFromTruth(dir / "truth.json");
+  const track::TrackResult r = track::RunTrack(o, dir / "video.mp4", dir / "track");
+  for (const char* f : {"trajectory.tum", "keyframes.tum", "sparse.ply", "track_summary.json",
+                        "track_options.json"}) {
+    EXPECT_TRUE(fs::exists(dir / "track" / f)) << f;
+  }
+  EXPECT_EQ(r.frames.size(), 90u);
+  EXPECT_TRUE(r.summary["loop_closed"].get<bool>());
+  // 1.1 turns over 9 s; the last frame is at 8.9 s.
+  EXPECT_NEAR(r.summary["turn_deg"].get<double>(), 396.0 * 89 / 90, 3.0);
+
+  const eval::TruthPlot truth = eval::ReadTruthJson(dir / "truth.json");
+  const eval::TrajectoryStats s = eval::CompareTrajectories(truth.poses, r.frames);
+  EXPECT_EQ(s.n_poses, 90);
+  EXPECT_LT(s.ate_rmse_m, 0.04);  // a 480x270 clip at 10 fps; the benchmark uses 1080p
+  EXPECT_LT(std::abs(s.scale_error_pct), 1.0);
+  EXPECT_LT(s.mean_rotation_error_deg, 2.5);  // mostly the vertical: few trunk edges at this size
+
+  // Same input, same output.
+  track::RunTrack(o, dir / "video.mp4", dir / "again");
+  EXPECT_EQ(ReadFileToString(dir / "track" / "trajectory.tum"),
+            ReadFileToString(dir / "again" / "trajectory.tum"));
+  fs::remove_all(dir);
+}
+
+TEST(TrackEndToEnd, HalfATurnIsNotAPlot) {
+  const fs::path dir = TestDir("half");
+  sim::SimulateOptions so = ShortPlot(dir, 0.6);
+  so.seconds = 5;
+  sim::RunSimulate(so);
+  try {
+    track::RunTrack(OptionsFromTruth(dir / "truth.json"), dir / "video.mp4", dir / "track");
+    FAIL() << "a half turn was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("full turn"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir / "track" / "trajectory.tum"));
+  fs::remove_all(dir);
+}
+
+TEST(TrackEndToEnd, DarkAndCorruptVideosAreRejected) {
+  const fs::path dir = TestDir("bad");
+  fs::create_directories(dir);
+  VideoWriterOptions wo;
+  wo.width = 320;
+  wo.height = 180;
+  wo.fps = 10;
+  {
+    VideoWriter w(dir / "dark.mp4", wo);
+    for (int i = 0; i < 30; ++i) w.Write(cv::Mat(180, 320, CV_8UC3, cv::Scalar(3, 3, 3)));
+    w.Close();
+  }
+  track::TrackOptions o;
+  try {
+    track::RunTrack(o, dir / "dark.mp4", dir / "out");
+    FAIL() << "a black video was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("dark"), std::string::npos) << e.what();
+  }
+  WriteFileAtomic(dir / "junk.mp4", std::string(5000, 'x'));
+  EXPECT_THROW(track::RunTrack(o, dir / "junk.mp4", dir / "out"), InputError);
+  EXPECT_THROW(track::RunTrack(o, dir / "missing.mp4", dir / "out"), InputError);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace stemmap
