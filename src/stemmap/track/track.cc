@@ -285,6 +285,14 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   s["vertical_segments"] = vertical.segments;
   s["vertical_trunks"] = vertical.trunks;
   s["stand_tilt_deg"] = vertical.tilt_deg;
+  const Eigen::Quaterniond& pa = r.plot_from_axis.rotation;
+  s["plot_from_axis"] = {{"qx", pa.x()},
+                         {"qy", pa.y()},
+                         {"qz", pa.z()},
+                         {"qw", pa.w()},
+                         {"t",
+                          {r.plot_from_axis.translation.x(), r.plot_from_axis.translation.y(),
+                           r.plot_from_axis.translation.z()}}};
   s["timing_s"] = timing;
 
   WriteTrackOutputs(out_dir, r, ToJson(o));
