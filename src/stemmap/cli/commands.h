@@ -8,6 +8,7 @@ namespace stemmap::cli {
 void AddSimulateCommand(CLI::App& app);
 void AddEvaluateCommand(CLI::App& app);
 void AddTrackCommand(CLI::App& app);
+void AddCalibrateCommand(CLI::App& app);
 
 // Applies --log-level before a subcommand runs.
 void ApplyLogLevel(const CLI::App& app);

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error or off")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "off"}));
   stemmap::cli::AddSimulateCommand(app);
+  stemmap::cli::AddCalibrateCommand(app);
   stemmap::cli::AddTrackCommand(app);
   stemmap::cli::AddEvaluateCommand(app);
   try {

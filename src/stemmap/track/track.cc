@@ -5,8 +5,8 @@
 
 #include <chrono>
 #include <cmath>
-#include <opencv2/core/persistence.hpp>
 
+#include "stemmap/calib/calibrate.h"
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/track/plot_frame.h"
@@ -81,7 +81,7 @@ PinholeCamera WorkingCamera(const TrackOptions& o, const VideoInfo& info) {
   if (max_side > 0 && long_side > max_side) s = static_cast<double>(max_side) / long_side;
   const int w = std::max(2, static_cast<int>(std::lround(info.width * s)));
   const int h = std::max(2, static_cast<int>(std::lround(info.height * s)));
-  if (!o.calibration.empty()) return ReadCalibration(o.calibration, w, h);
+  if (!o.calibration.empty()) return calib::ReadCalibration(o.calibration, w, h);
   return PinholeCamera::FromHfov(w, h, o.hfov_deg);
 }
 
@@ -100,46 +100,6 @@ void TrackOptions::Check() const {
   BundleOptions b = bundle;
   b.arm_radius_m = arm_radius_m;
   b.Check();
-}
-
-PinholeCamera ReadCalibration(const std::filesystem::path& path, int width, int height) {
-  cv::FileStorage fs;
-  try {
-    fs.open(path.string(), cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    throw InputError(fmt::format("cannot read calibration {}: {}", path.string(), e.msg));
-  }
-  if (!fs.isOpened()) throw InputError(fmt::format("cannot open calibration {}", path.string()));
-  cv::Mat k, d;
-  int cw = 0, ch = 0;
-  fs["camera_matrix"] >> k;
-  fs["distortion_coefficients"] >> d;
-  fs["image_width"] >> cw;
-  fs["image_height"] >> ch;
-  if (k.rows != 3 || k.cols != 3 || cw <= 0 || ch <= 0) {
-    throw InputError(fmt::format(
-        "calibration {} needs camera_matrix (3x3), image_width and image_height", path.string()));
-  }
-  k.convertTo(k, CV_64F);
-  PinholeCamera c;
-  c.width = cw;
-  c.height = ch;
-  c.fx = k.at<double>(0, 0);
-  c.fy = k.at<double>(1, 1);
-  c.cx = k.at<double>(0, 2);
-  c.cy = k.at<double>(1, 2);
-  if (!d.empty()) {
-    d.convertTo(d, CV_64F);
-    d = d.reshape(1, static_cast<int>(d.total()));
-    c.k1 = d.at<double>(0);
-    if (d.total() > 1) c.k2 = d.at<double>(1);
-  }
-  c.Check();
-  if (std::abs(static_cast<double>(cw) / ch - static_cast<double>(width) / height) > 0.01) {
-    throw InputError(fmt::format("calibration {} is for {}x{}, the video is {}x{} (another shape)",
-                                 path.string(), cw, ch, width, height));
-  }
-  return c.Scaled(static_cast<double>(width) / cw);
 }
 
 std::string TrackResult::BriefReport() const {

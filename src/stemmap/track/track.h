@@ -36,10 +36,6 @@ struct TrackOptions {
   void Check() const;
 };
 
-// Reads the camera from an OpenCV YAML file (camera_matrix, distortion_coefficients,
-// image_width, image_height) and scales it to `width` x `height` (same aspect ratio required).
-PinholeCamera ReadCalibration(const std::filesystem::path& path, int width, int height);
-
 struct TrackResult {
   PinholeCamera camera;                // working resolution
   std::vector<StampedPose> frames;     // every decoded frame, world_from_cam in the plot frame
