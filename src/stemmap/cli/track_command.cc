@@ -26,6 +26,11 @@ void AddTrackOptions(CLI::App* sub, track::TrackOptions* opt, std::filesystem::p
                   "image_width, image_height)")
       ->check(CLI::ExistingFile)
       ->excludes(hfov);
+  sub->add_option("--focal", opt->focal,
+                  "Focal length in bundle adjustment: auto (refined unless --calibration), fixed "
+                  "or refine")
+      ->check(CLI::IsMember({"auto", "fixed", "refine"}))
+      ->capture_default_str();
   sub->add_option("--camera-height", opt->camera_height_m,
                   "Arm height above the ground at the tripod, measured (m; default: estimated "
                   "from the ground in view)");

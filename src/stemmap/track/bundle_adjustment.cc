@@ -51,8 +51,20 @@ double ReprojectionErrorPx(const SparseMap& map, const PinholeCamera& camera, in
   const Eigen::Vector3d p = map.cam_from_world[kf] * (x - map.centre_world[kf]);
   if (p.z() <= 1e-6) return 1e9;
   const Eigen::Vector3d ray = camera.CamRayFromImage(px);
-  return camera.fx * (p.head<2>() / p.z() - ray.head<2>()).norm();
+  return camera.fx * (map.focal_scale * p.head<2>() / p.z() - ray.head<2>()).norm();
 }
+
+namespace {
+
+// Camera ray through a pixel under the map's focal scale.
+Eigen::Vector3d RayOf(const SparseMap& map, const PinholeCamera& camera,
+                      const Eigen::Vector2d& px) {
+  Eigen::Vector3d ray = camera.CamRayFromImage(px);
+  ray.head<2>() /= map.focal_scale;
+  return ray;
+}
+
+}  // namespace
 
 int TriangulateTracks(const BundleOptions& o, const std::vector<Track>& tracks,
                       const PinholeCamera& camera, SparseMap* map) {
@@ -76,7 +88,7 @@ int TriangulateTracks(const BundleOptions& o, const std::vector<Track>& tracks,
       if (!map->obs_valid[t][k]) continue;
       const int kf = obs[k].keyframe;
       const Eigen::Vector3d d =
-          (map->cam_from_world[kf].conjugate() * camera.CamRayFromImage(obs[k].px)).normalized();
+          (map->cam_from_world[kf].conjugate() * RayOf(*map, camera, obs[k].px)).normalized();
       const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
       a += p;
       b += p * map->centre_world[kf];
@@ -158,7 +170,8 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
       const Eigen::Vector3d ray = camera.CamRayFromImage(ob.px);
       problem.AddResidualBlock(ReprojectionError::Create(ray.head<2>(), camera.fx),
                                reprojection_loss, map->cam_from_world[ob.keyframe].coeffs().data(),
-                               map->centre_world[ob.keyframe].data(), map->point_world[t].data());
+                               map->centre_world[ob.keyframe].data(), map->point_world[t].data(),
+                               &map->focal_scale);
       kf_used[ob.keyframe] = 1;
       ++s.observations;
     }
@@ -175,6 +188,9 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
     problem.SetManifold(q, &quaternion_manifold);
   }
   problem.SetManifold(map->arm_from_cam.coeffs().data(), &quaternion_manifold);
+  if (!o.refine_focal && problem.HasParameterBlock(&map->focal_scale)) {
+    problem.SetParameterBlockConstant(&map->focal_scale);
+  }
   problem.AddResidualBlock(YawGaugeError::Create(), nullptr, map->centre_world[0].data());
 
   ceres::Solver::Options so;

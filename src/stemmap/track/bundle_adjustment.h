@@ -16,7 +16,8 @@ struct SparseMap {
   std::vector<Eigen::Quaterniond> cam_from_world;
   std::vector<Eigen::Vector3d> centre_world;
   Eigen::Quaterniond arm_from_cam = Eigen::Quaterniond::Identity();  // the phone's mount
-  std::vector<Eigen::Vector3d> point_world;                          // one per track
+  double focal_scale = 1.0;                  // refined focal length over the starting one
+  std::vector<Eigen::Vector3d> point_world;  // one per track
   std::vector<char> point_valid;             // 0 for tracks not (or no longer) triangulated
   std::vector<std::vector<char>> obs_valid;  // per track and observation: 0 once rejected
 };
@@ -32,6 +33,7 @@ struct BundleOptions {
   int min_observations = 3;
   int max_points = 6000;
   int max_iterations = 40;
+  bool refine_focal = false;  // the closed loop makes the focal length observable
   int threads = 2;
   void Check() const;
 };

@@ -12,14 +12,16 @@
 
 namespace stemmap::track {
 
-// Reprojection error in pixels of a world point X seen at normalised image point (u, v):
-//   P = cam_from_world * (X - c),   r = f * (P.x / P.z - u, P.y / P.z - v).
+// Reprojection error in pixels of a world point X seen at normalised image point (u, v), with a
+// focal scale k (1 = the starting focal length f, refined when the field of view is a guess):
+//   P = cam_from_world * (X - c),   r = f * (k * P.x / P.z - u, k * P.y / P.z - v).
 // f turns normalised units into pixels so robust-loss thresholds read in pixels.
 struct ReprojectionError {
   ReprojectionError(const Eigen::Vector2d& uv, double focal_px) : uv_(uv), f_(focal_px) {}
 
   template <typename T>
-  bool operator()(const T* q_cam_from_world, const T* c_world, const T* x_world, T* r) const {
+  bool operator()(const T* q_cam_from_world, const T* c_world, const T* x_world,
+                  const T* focal_scale, T* r) const {
     const Eigen::Map<const Eigen::Quaternion<T>> q(q_cam_from_world);
     const Eigen::Map<const Eigen::Matrix<T, 3, 1>> c(c_world), x(x_world);
     const Eigen::Matrix<T, 3, 1> p = q * (x - c);
@@ -28,13 +30,13 @@ struct ReprojectionError {
       r[1] = T(0);
       return true;
     }
-    r[0] = T(f_) * (p.x() / p.z() - T(uv_.x()));
-    r[1] = T(f_) * (p.y() / p.z() - T(uv_.y()));
+    r[0] = T(f_) * (focal_scale[0] * p.x() / p.z() - T(uv_.x()));
+    r[1] = T(f_) * (focal_scale[0] * p.y() / p.z() - T(uv_.y()));
     return true;
   }
 
   static ceres::CostFunction* Create(const Eigen::Vector2d& uv, double focal_px) {
-    return new ceres::AutoDiffCostFunction<ReprojectionError, 2, 4, 3, 3>(
+    return new ceres::AutoDiffCostFunction<ReprojectionError, 2, 4, 3, 3, 1>(
         new ReprojectionError(uv, focal_px));
   }
 

@@ -21,9 +21,11 @@ void ExpectGradientsMatch(ceres::CostFunction* cost, std::vector<double*> params
 TEST(Residuals, ReprojectionGradient) {
   Eigen::Quaterniond q(Eigen::AngleAxisd(0.3, Eigen::Vector3d(0.2, 1.0, -0.1).normalized()));
   Eigen::Vector3d c(0.9, 0.2, 0.01), x(2.0, 1.0, 5.0);
+  double k = 1.02;
   ceres::EigenQuaternionManifold qm;
   ExpectGradientsMatch(ReprojectionError::Create({0.1, -0.05}, 800.0),
-                       {q.coeffs().data(), c.data(), x.data()}, {&qm, nullptr, nullptr});
+                       {q.coeffs().data(), c.data(), x.data(), &k},
+                       {&qm, nullptr, nullptr, nullptr});
 }
 
 TEST(Residuals, ReprojectionIsZeroAtTheProjection) {
@@ -32,7 +34,8 @@ TEST(Residuals, ReprojectionIsZeroAtTheProjection) {
   const Eigen::Vector3d p = q * (x - c);
   ReprojectionError e(p.head<2>() / p.z(), 1000.0);
   double r[2];
-  e(q.coeffs().data(), c.data(), x.data(), r);
+  const double k = 1.0;
+  e(q.coeffs().data(), c.data(), x.data(), &k, r);
   EXPECT_NEAR(r[0], 0.0, 1e-9);
   EXPECT_NEAR(r[1], 0.0, 1e-9);
 }

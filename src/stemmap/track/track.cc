@@ -94,6 +94,9 @@ void TrackOptions::Check() const {
   if (camera_height_m < 0 || camera_height_m > 3.0) {
     throw InputError(fmt::format("--camera-height {} m is outside 0-3 m", camera_height_m));
   }
+  if (focal != "auto" && focal != "fixed" && focal != "refine") {
+    throw InputError(fmt::format("focal mode '{}' is not auto, fixed or refine", focal));
+  }
   if (bundle_rounds < 1) throw InputError("at least one bundle adjustment round is needed");
   frontend.Check();
   loop.Check();
@@ -166,6 +169,7 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   SparseMap map;
   BundleOptions bo = o.bundle;
   bo.arm_radius_m = o.arm_radius_m;
+  bo.refine_focal = o.focal == "refine" || (o.focal == "auto" && o.calibration.empty());
   PlaceOnCircle(phi, o.arm_radius_m, &map);
   nlohmann::json rounds = nlohmann::json::array();
   BundleSummary bs;
@@ -177,6 +181,10 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
     rounds.push_back(bs.BriefReport());
   }
   timing["bundle_adjustment_s"] = clock.Lap();
+  const double initial_hfov_deg = r.camera.HfovDeg();
+  r.camera.fx *= map.focal_scale;
+  r.camera.fy *= map.focal_scale;
+  map.focal_scale = 1.0;
 
   // Plot frame: up along the axis, origin on the ground below it.
   std::vector<Eigen::Vector3d> pts_axis;
@@ -219,6 +227,9 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
                 {"corrupt_packets", f.corrupt_packets},
                 {"dark_frames", f.dark_frames}};
   s["camera"] = r.camera;
+  s["focal_refined"] = bo.refine_focal;
+  s["hfov_initial_deg"] = initial_hfov_deg;
+  s["hfov_deg"] = r.camera.HfovDeg();
   s["keyframes"] = f.keyframes.size();
   s["tracks"] = f.tracks.size();
   s["mean_tracked_points"] = f.mean_tracked_points;

@@ -22,6 +22,8 @@ struct TrackOptions {
   double arm_radius_m = 1.0;
   double hfov_deg = kDefaultPhoneHfovDeg;  // used when `calibration` is empty
   std::filesystem::path calibration;       // OpenCV YAML from `stemmap calibrate`
+  // Refine the focal length in bundle adjustment: "auto" does so when no calibration is given.
+  std::string focal = "auto";  // auto, fixed or refine
   // Arm height above the ground at the tripod, measured with a tape (m). 0: estimate it from the
   // ground seen around the plot, which misses any bump right under the tripod (the camera faces
   // outward and sees the ground only from ~4 m out).

@@ -32,6 +32,7 @@ nlohmann::json ToJson(const TrackOptions& o) {
   return {{"arm_radius_m", o.arm_radius_m},
           {"hfov_deg", o.hfov_deg},
           {"calibration", o.calibration.string()},
+          {"focal", o.focal},
           {"camera_height_m", o.camera_height_m},
           {"min_turn_deg", o.min_turn_deg},
           {"max_dark_share", o.max_dark_share},
