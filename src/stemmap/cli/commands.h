@@ -1,6 +1,9 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <filesystem>
+
+#include "stemmap/track/track.h"
 
 namespace stemmap::cli {
 
@@ -9,6 +12,11 @@ void AddSimulateCommand(CLI::App& app);
 void AddEvaluateCommand(CLI::App& app);
 void AddTrackCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
+void AddProcessCommand(CLI::App& app);
+
+// The video, output folder and camera/rig options shared by `track` and `process`.
+void AddTrackOptions(CLI::App* sub, track::TrackOptions* opt, std::filesystem::path* video,
+                     std::filesystem::path* out);
 
 // Applies --log-level before a subcommand runs.
 void ApplyLogLevel(const CLI::App& app);

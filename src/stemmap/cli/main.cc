@@ -24,6 +24,7 @@ int main(int argc, char** argv) {
   stemmap::cli::AddSimulateCommand(app);
   stemmap::cli::AddCalibrateCommand(app);
   stemmap::cli::AddTrackCommand(app);
+  stemmap::cli::AddProcessCommand(app);
   stemmap::cli::AddEvaluateCommand(app);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,35 @@
+#include <fmt/format.h>
+
+#include <memory>
+
+#include "stemmap/cli/commands.h"
+#include "stemmap/pipeline/process.h"
+
+namespace stemmap::cli {
+
+void AddProcessCommand(CLI::App& app) {
+  auto opt = std::make_shared<pipeline::ProcessOptions>();
+  auto video = std::make_shared<std::filesystem::path>();
+  auto out = std::make_shared<std::filesystem::path>();
+  CLI::App* sub = app.add_subcommand(
+      "process", "Tree list of a capture video: positions and DBH (trees.csv, summary.json)");
+  AddTrackOptions(sub, &opt->track, video.get(), out.get());
+  sub->add_option("--plot-radius", opt->plot_radius_m, "Plot radius for the plot figures (m)")
+      ->capture_default_str();
+  sub->add_option("--min-dbh", opt->min_dbh_cm, "Smallest DBH counted in the figures (cm)")
+      ->capture_default_str();
+  sub->add_option("--breast-height", opt->stems.breast_height_m,
+                  "Height of the DBH above the ground at the stem (m)")
+      ->capture_default_str();
+  sub->add_option("--dbh-method", opt->stems.dbh_method,
+                  "slice (robust width of a 0.1 m slice across the view) or circle")
+      ->check(CLI::IsMember({"slice", "circle"}))
+      ->capture_default_str();
+  sub->callback([sub, opt, video, out] {
+    ApplyLogLevel(*sub);
+    const pipeline::ProcessResult r = pipeline::RunProcess(*opt, *video, *out);
+    fmt::print("{}wrote {}\n", r.Table(), out->string());
+  });
+}
+
+}  // namespace stemmap::cli

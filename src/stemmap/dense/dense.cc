@@ -1,0 +1,131 @@
+#include "stemmap/dense/dense.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <map>
+
+#include "stemmap/core/error.h"
+#include "stemmap/core/io.h"
+#include "stemmap/core/progress.h"
+#include "stemmap/video/video_reader.h"
+
+namespace stemmap::dense {
+
+void DenseOptions::Check() const {
+  stereo.Check();
+  if (!(pair_turn_deg >= 2.0 && pair_turn_deg <= 40.0)) {
+    throw InputError(fmt::format("stereo pair turn {}° must lie in 2-40°", pair_turn_deg));
+  }
+  if (!(reference_step_deg > 0)) throw InputError("reference step must be positive");
+}
+
+namespace {
+
+// Heading (rad) of a camera's optical axis about the plot's z.
+double Heading(const Rigid3d& world_from_cam) {
+  const Eigen::Vector3d f = world_from_cam.rotation * Eigen::Vector3d::UnitZ();
+  return std::atan2(f.y(), f.x());
+}
+
+}  // namespace
+
+void WriteCloudPly(const std::filesystem::path& path, const std::vector<CloudPoint>& pts) {
+  std::string s = fmt::format(
+      "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\n"
+      "property float y\nproperty float z\nproperty uchar red\nproperty uchar green\n"
+      "property uchar blue\nproperty float ox\nproperty float oy\nproperty float oz\n"
+      "end_header\n",
+      pts.size());
+  const size_t header = s.size(), record = 3 * 4 + 3 + 3 * 4;
+  s.resize(header + record * pts.size());
+  char* p = s.data() + header;
+  for (const CloudPoint& c : pts) {
+    std::memcpy(p, c.world.data(), 12);
+    p[12] = static_cast<char>(c.bgr[2]);
+    p[13] = static_cast<char>(c.bgr[1]);
+    p[14] = static_cast<char>(c.bgr[0]);
+    std::memcpy(p + 15, c.origin.data(), 12);
+    p += record;
+  }
+  WriteFileAtomic(path, s);
+}
+
+DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
+                     const std::filesystem::path& out_dir) {
+  o.Check();
+  const auto start = std::chrono::steady_clock::now();
+  const int n = static_cast<int>(in.keyframes.size());
+  if (n < 2) throw ProcessingError("dense depth needs at least two keyframes");
+  // Unwrapped headings, so "this much turn later" is a simple search.
+  std::vector<double> heading(n);
+  for (int k = 0; k < n; ++k) {
+    heading[k] = Heading(in.keyframes[k].world_from_cam);
+    if (k > 0) heading[k] = heading[k - 1] + std::remainder(heading[k] - heading[k - 1], 2 * M_PI);
+  }
+  const double sign = heading.back() >= heading.front() ? 1.0 : -1.0;
+  const double pair = o.pair_turn_deg * M_PI / 180.0, step = o.reference_step_deg * M_PI / 180.0;
+  std::vector<std::pair<int, int>> pairs;
+  double next_ref = heading[0];
+  for (int k = 0; k < n; ++k) {
+    if (sign * (heading[k] - next_ref) < 0) continue;
+    // Stop one turn after the start: the rest sees the same trees again.
+    if (sign * (heading[k] - heading[0]) > 2 * M_PI) break;
+    int best = -1;
+    double best_err = 0.25 * pair;
+    for (int j = k + 1; j < n && sign * (heading[j] - heading[k]) < 1.5 * pair; ++j) {
+      const double err = std::abs(sign * (heading[j] - heading[k]) - pair);
+      if (err < best_err) {
+        best_err = err;
+        best = j;
+      }
+    }
+    if (best >= 0) {
+      pairs.emplace_back(k, best);
+      next_ref = heading[k] + sign * step;
+    }
+  }
+  std::map<int, cv::Mat> images;  // keyframe -> BGR at the working resolution
+  for (const auto& [a, b] : pairs) images[a], images[b];
+  VideoReaderOptions vro;
+  vro.max_long_side_px = o.working_long_side_px;
+  VideoReader reader(in.video, vro);
+  const double half_frame = 0.5 / std::max(1.0, reader.info().fps);
+  auto it = images.begin();
+  while (it != images.end()) {
+    std::optional<DecodedFrame> f = reader.Next();
+    if (!f) break;
+    while (it != images.end() && in.keyframes[it->first].t_s < f->t_s - half_frame) ++it;
+    if (it != images.end() && std::abs(in.keyframes[it->first].t_s - f->t_s) <= half_frame) {
+      it->second = f->bgr;
+      ++it;
+    }
+  }
+  DenseResult r;
+  Progress progress("depth", static_cast<int64_t>(pairs.size()));
+  for (size_t i = 0; i < pairs.size(); ++i) {
+    const auto [a, b] = pairs[i];
+    const cv::Mat &ia = images[a], &ib = images[b];
+    if (ia.empty() || ib.empty()) continue;
+    std::vector<CloudPoint> pts =
+        StereoPairPoints(o.stereo, ia, ib, in.camera, in.keyframes[a].world_from_cam,
+                         in.keyframes[b].world_from_cam, a);
+    r.points.insert(r.points.end(), pts.begin(), pts.end());
+    ++r.pairs;
+    progress.Update(static_cast<int64_t>(i + 1));
+  }
+  progress.Finish();
+  if (r.pairs == 0) throw ProcessingError("no keyframe images found for stereo (timestamps?)");
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  r.summary = {{"pairs", r.pairs}, {"points", r.points.size()}, {"wall_s", wall}};
+  WriteCloudPly(out_dir / "cloud.ply", r.points);
+  WriteJsonAtomic(out_dir / "dense_summary.json", r.summary);
+  spdlog::info("dense: {} pairs, {} points in {:.1f} s", r.pairs, r.points.size(), wall);
+  return r;
+}
+
+}  // namespace stemmap::dense

@@ -1,0 +1,41 @@
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
+#include "stemmap/dense/stereo.h"
+
+namespace stemmap::dense {
+
+struct DenseOptions {
+  StereoOptions stereo;
+  double pair_turn_deg = 14.0;      // turn between the two keyframes of a pair (baseline ~0.24 m)
+  double reference_step_deg = 4.0;  // one reference keyframe every this much turn
+  int working_long_side_px = 960;
+  void Check() const;
+};
+
+struct DenseInput {
+  std::filesystem::path video;
+  PinholeCamera camera;                // at the working resolution
+  std::vector<StampedPose> keyframes;  // plot frame
+};
+
+struct DenseResult {
+  std::vector<CloudPoint> points;  // plot frame
+  int pairs = 0;
+  nlohmann::json summary;
+};
+
+// Depth for keyframe pairs, fused into one cloud that keeps each point's ray. Writes
+// OUT/cloud.ply (binary: x y z, red green blue, ray origin ox oy oz) and OUT/dense_summary.json.
+DenseResult RunDense(const DenseOptions& options, const DenseInput& input,
+                     const std::filesystem::path& out_dir);
+
+// Binary little-endian PLY of the cloud, written atomically.
+void WriteCloudPly(const std::filesystem::path& path, const std::vector<CloudPoint>& points);
+
+}  // namespace stemmap::dense

@@ -1,0 +1,42 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
+
+namespace stemmap::dense {
+
+// Two keyframes a few degrees of turn apart form a sideways stereo pair (the arm moves the camera
+// along its x axis), slightly divergent; rectified, semi-global matching gives depth.
+struct StereoOptions {
+  double scale = 0.5;         // matching resolution relative to the keyframe images
+  int num_disparities = 128;  // at that resolution, multiple of 16
+  int block_size = 5;
+  int uniqueness_ratio = 12;
+  int speckle_window = 80;
+  int speckle_range = 2;
+  double min_depth_m = 0.8;
+  double max_depth_m = 14.0;
+  int pixel_step = 2;  // keep every n-th pixel of the depth map
+  void Check() const;
+};
+
+// A fused point that remembers where it was seen from: the camera centre gives its ray, so free
+// space between the camera and the point can veto a false stem.
+struct CloudPoint {
+  Eigen::Vector3f world;
+  Eigen::Vector3f origin;  // camera centre it was measured from
+  cv::Vec3b bgr;
+  int keyframe = 0;
+};
+
+// Depth points of one pair, in the world frame of the poses. `cam` is the images' camera.
+std::vector<CloudPoint> StereoPairPoints(const StereoOptions& o, const cv::Mat& bgr_a,
+                                         const cv::Mat& bgr_b, const PinholeCamera& cam,
+                                         const Rigid3d& world_from_a, const Rigid3d& world_from_b,
+                                         int keyframe_a);
+
+}  // namespace stemmap::dense

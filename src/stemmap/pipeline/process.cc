@@ -1,0 +1,125 @@
+#include "stemmap/pipeline/process.h"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+
+#include "stemmap/core/error.h"
+#include "stemmap/core/io.h"
+
+namespace stemmap::pipeline {
+
+void ProcessOptions::Check() const {
+  track.Check();
+  dense.Check();
+  stems.Check();
+  if (!(plot_radius_m > 0)) throw InputError("--plot-radius must be positive");
+  if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
+}
+
+PlotFigures ComputePlotFigures(const std::vector<stems::Stem>& stems, double plot_radius_m,
+                               double min_dbh_cm) {
+  PlotFigures f;
+  const double area_ha = M_PI * plot_radius_m * plot_radius_m / 1e4;
+  double sum_ba = 0, sum_d2 = 0;
+  for (const stems::Stem& s : stems) {
+    const double dbh_cm = 100 * s.dbh_m;
+    if (s.centre_xy.norm() > plot_radius_m || dbh_cm < min_dbh_cm) continue;
+    ++f.stems;
+    sum_ba += M_PI * std::pow(s.dbh_m / 2, 2);
+    sum_d2 += dbh_cm * dbh_cm;
+  }
+  f.stems_per_ha = f.stems / area_ha;
+  f.basal_area_m2_per_ha = sum_ba / area_ha;
+  f.qmd_cm = f.stems > 0 ? std::sqrt(sum_d2 / f.stems) : 0.0;
+  return f;
+}
+
+void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::Stem>& stems,
+                   double breast_height_m, double plot_radius_m) {
+  std::string s = "tree_id,x_m,y_m,z_m,dbh_cm,dbh_sd_cm,distance_m,azimuth_deg,n_views,flags\n";
+  int id = 0;
+  for (const stems::Stem& t : stems) {
+    const double d = t.centre_xy.norm();
+    double az = std::atan2(t.centre_xy.y(), t.centre_xy.x()) * 180.0 / M_PI;
+    if (az < 0) az += 360.0;
+    std::vector<std::string> flags = t.flags;
+    if (std::abs(d - plot_radius_m) < 0.5) flags.push_back("plot_edge");
+    s += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.1f},{:.1f},{:.2f},{:.1f},{},{}\n", ++id,
+                     t.centre_xy.x(), t.centre_xy.y(), t.ground_z_m + breast_height_m,
+                     100 * t.dbh_m, 100 * t.dbh_sd_m, d, az, t.n_views, fmt::join(flags, ";"));
+  }
+  WriteFileAtomic(path, s);
+}
+
+std::string ProcessResult::Table() const {
+  std::string s = fmt::format("{:>4} {:>8} {:>8} {:>8} {:>8} {:>6}  {}\n", "tree", "dist m",
+                              "az deg", "DBH cm", "SD cm", "views", "flags");
+  int id = 0;
+  for (const stems::Stem& t : stems) {
+    double az = std::atan2(t.centre_xy.y(), t.centre_xy.x()) * 180.0 / M_PI;
+    if (az < 0) az += 360.0;
+    s += fmt::format("{:>4} {:>8.2f} {:>8.1f} {:>8.1f} {:>8.1f} {:>6}  {}\n", ++id,
+                     t.centre_xy.norm(), az, 100 * t.dbh_m, 100 * t.dbh_sd_m, t.n_views,
+                     fmt::join(t.flags, ";"));
+  }
+  s += fmt::format(
+      "{} stems in the plot: {:.0f} stems/ha, basal area {:.1f} m²/ha, QMD {:.1f} cm\n",
+      figures.stems, figures.stems_per_ha, figures.basal_area_m2_per_ha, figures.qmd_cm);
+  return s;
+}
+
+ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& video,
+                         const std::filesystem::path& out_dir) {
+  o.Check();
+  const auto t0 = std::chrono::steady_clock::now();
+  auto lap = [last = t0]() mutable {
+    const auto now = std::chrono::steady_clock::now();
+    const double s = std::chrono::duration<double>(now - last).count();
+    last = now;
+    return s;
+  };
+  nlohmann::json timing;
+  const track::TrackResult tr = track::RunTrack(o.track, video, out_dir);
+  timing["track_s"] = lap();
+  dense::DenseInput din{video, tr.camera, tr.keyframes};
+  dense::DenseOptions dopt = o.dense;
+  dopt.working_long_side_px = o.track.frontend.working_long_side_px;
+  const dense::DenseResult dr = dense::RunDense(dopt, din, out_dir);
+  timing["dense_s"] = lap();
+  const stems::GroundGrid ground(dr.points, o.stems.search_radius_m + 2.0, 0.5);
+  const stems::StemsResult sr = stems::DetectStems(o.stems, dr.points, ground);
+  timing["stems_s"] = lap();
+
+  ProcessResult r;
+  r.stems = sr.stems;
+  r.figures = ComputePlotFigures(r.stems, o.plot_radius_m, o.min_dbh_cm);
+  WriteTreesCsv(out_dir / "trees.csv", r.stems, o.stems.breast_height_m, o.plot_radius_m);
+  nlohmann::json& s = r.summary;
+  s["plot"] = {{"radius_m", o.plot_radius_m},
+               {"min_dbh_cm", o.min_dbh_cm},
+               {"stems", r.figures.stems},
+               {"stems_per_ha", r.figures.stems_per_ha},
+               {"basal_area_m2_per_ha", r.figures.basal_area_m2_per_ha},
+               {"qmd_cm", r.figures.qmd_cm}};
+  s["track"] = tr.summary;
+  s["dense"] = dr.summary;
+  s["stems"] = sr.Summary();
+  s["stems"]["dbh_method"] = o.stems.dbh_method;
+  s["stems"]["ground_cells"] = ground.measured_cells();
+  timing["total_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  s["timing_s"] = timing;
+  WriteJsonAtomic(out_dir / "process_options.json",
+                  {{"track", track::ToJson(o.track)},
+                   {"plot_radius_m", o.plot_radius_m},
+                   {"min_dbh_cm", o.min_dbh_cm},
+                   {"breast_height_m", o.stems.breast_height_m},
+                   {"dbh_method", o.stems.dbh_method},
+                   {"stereo_pair_turn_deg", o.dense.pair_turn_deg}});
+  WriteJsonAtomic(out_dir / "summary.json", s);
+  return r;
+}
+
+}  // namespace stemmap::pipeline

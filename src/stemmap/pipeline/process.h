@@ -1,0 +1,47 @@
+#pragma once
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "stemmap/dense/dense.h"
+#include "stemmap/stems/stems.h"
+#include "stemmap/track/track.h"
+
+namespace stemmap::pipeline {
+
+struct ProcessOptions {
+  track::TrackOptions track;
+  dense::DenseOptions dense;
+  stems::StemOptions stems;
+  double plot_radius_m = 10.0;  // plot figures count stems within this radius
+  double min_dbh_cm = 7.0;      // and at least this thick
+  void Check() const;
+};
+
+// Plot-level figures foresters use.
+struct PlotFigures {
+  int stems = 0;
+  double stems_per_ha = 0.0, basal_area_m2_per_ha = 0.0, qmd_cm = 0.0;
+};
+PlotFigures ComputePlotFigures(const std::vector<stems::Stem>& stems, double plot_radius_m,
+                               double min_dbh_cm);
+
+struct ProcessResult {
+  std::vector<stems::Stem> stems;
+  PlotFigures figures;
+  nlohmann::json summary;
+  std::string Table() const;  // plain-text tree list for the terminal
+};
+
+// `stemmap process`: track, dense depth, stems and DBH. Writes OUT/trees.csv, OUT/summary.json,
+// OUT/process_options.json and the stages' own files (trajectory.tum, cloud.ply, ...).
+ProcessResult RunProcess(const ProcessOptions& options, const std::filesystem::path& video,
+                         const std::filesystem::path& out_dir);
+
+// trees.csv as in docs/output-format.md, written atomically.
+void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::Stem>& stems,
+                   double breast_height_m, double plot_radius_m);
+
+}  // namespace stemmap::pipeline

@@ -1,0 +1,243 @@
+#include "stemmap/stems/stems.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <opencv2/imgproc.hpp>
+#include <set>
+
+#include "stemmap/core/error.h"
+
+namespace stemmap::stems {
+
+void StemOptions::Check() const {
+  if (!(breast_height_m > 0.3 && breast_height_m < 3.0)) {
+    throw InputError(fmt::format("breast height {} m is outside 0.3-3 m", breast_height_m));
+  }
+  if (!(search_radius_m > 1)) throw InputError("search radius must exceed 1 m");
+  if (!(band_high_m > band_low_m)) throw InputError("detection band is empty");
+  if (dbh_method != "slice" && dbh_method != "circle") {
+    throw InputError(fmt::format("DBH method '{}' is not slice or circle", dbh_method));
+  }
+}
+
+nlohmann::json StemsResult::Summary() const {
+  return {{"stems", stems.size()},
+          {"components", components},
+          {"rejected_size", rejected_size},
+          {"rejected_vertical", rejected_vertical},
+          {"vetoed_free_space", vetoed_free_space}};
+}
+
+bool FitCircle(const std::vector<Eigen::Vector2d>& pts, Eigen::Vector2d* centre, double* radius,
+               double* rms_m) {
+  const int n = static_cast<int>(pts.size());
+  if (n < 3) return false;
+  // Kasa: x^2 + y^2 + D x + E y + F = 0, linear least squares.
+  Eigen::MatrixXd a(n, 3);
+  Eigen::VectorXd b(n);
+  for (int i = 0; i < n; ++i) {
+    a(i, 0) = pts[i].x();
+    a(i, 1) = pts[i].y();
+    a(i, 2) = 1.0;
+    b(i) = -pts[i].squaredNorm();
+  }
+  const Eigen::Vector3d s = a.colPivHouseholderQr().solve(b);
+  Eigen::Vector2d c(-s(0) / 2, -s(1) / 2);
+  double r2 = c.squaredNorm() - s(2);
+  if (!(r2 > 0)) return false;
+  double r = std::sqrt(r2);
+  // Gauss-Newton on the geometric distance with Huber weights (5 mm).
+  for (int it = 0; it < 10; ++it) {
+    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d g = Eigen::Vector3d::Zero();
+    for (const Eigen::Vector2d& p : pts) {
+      const Eigen::Vector2d d = p - c;
+      const double dist = d.norm();
+      if (dist < 1e-9) continue;
+      const double e = dist - r;
+      const double w = std::abs(e) < 0.005 ? 1.0 : 0.005 / std::abs(e);
+      const Eigen::Vector3d j(-d.x() / dist, -d.y() / dist, -1.0);
+      h += w * j * j.transpose();
+      g += w * j * e;
+    }
+    const Eigen::Vector3d step = h.ldlt().solve(-g);
+    if (!step.allFinite()) break;
+    c += step.head<2>();
+    r += step(2);
+    if (step.norm() < 1e-6) break;
+  }
+  double sq = 0;
+  for (const Eigen::Vector2d& p : pts) sq += std::pow((p - c).norm() - r, 2);
+  *centre = c;
+  *radius = r;
+  *rms_m = std::sqrt(sq / n);
+  return r > 0 && std::isfinite(r);
+}
+
+namespace {
+
+double Quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  const size_t k = static_cast<size_t>(q * (v.size() - 1));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+// The paper's estimator: the slice seen from the plot centre, its robust width across the view.
+double SliceWidth(const std::vector<Eigen::Vector2d>& pts, const Eigen::Vector2d& centre) {
+  const Eigen::Vector2d u = centre.normalized();
+  const Eigen::Vector2d across(-u.y(), u.x());
+  std::vector<double> s;
+  for (const Eigen::Vector2d& p : pts) s.push_back(across.dot(p - centre));
+  return Quantile(s, 0.97) - Quantile(s, 0.03);
+}
+
+// Rays (origin -> point, in 2-D) that cross the stem's disc and end well beyond it, over rays
+// that end on the stem: a real trunk blocks the view.
+double PassThroughRatio(const std::vector<const dense::CloudPoint*>& band, const Eigen::Vector2d& c,
+                        double r) {
+  int through = 0, hits = 0;
+  const double inner = 0.7 * r;
+  for (const dense::CloudPoint* p : band) {
+    const Eigen::Vector2d o = p->origin.head<2>().cast<double>();
+    const Eigen::Vector2d e = p->world.head<2>().cast<double>();
+    const Eigen::Vector2d d = e - o;
+    const double len = d.norm();
+    if (len < 1e-6) continue;
+    const Eigen::Vector2d u = d / len;
+    const double t = u.dot(c - o);  // closest approach along the ray
+    if (t < 0) continue;
+    const double miss = (o + t * u - c).norm();
+    if ((e - c).norm() < r + 0.05) {
+      ++hits;
+    } else if (miss < inner && len > t + r + 0.1) {
+      ++through;
+    }
+  }
+  return hits + through > 0 ? static_cast<double>(through) / (hits + through) : 1.0;
+}
+
+}  // namespace
+
+StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoint>& cloud,
+                        const GroundGrid& ground) {
+  o.Check();
+  StemsResult result;
+  // Points of the detection band, with their height above the ground.
+  std::vector<const dense::CloudPoint*> band;
+  std::vector<double> band_h;
+  for (const dense::CloudPoint& p : cloud) {
+    const double x = p.world.x(), y = p.world.y();
+    if (std::hypot(x, y) > o.search_radius_m) continue;
+    const double h = p.world.z() - ground.Height(x, y);
+    if (h < o.band_low_m || h > o.band_high_m) continue;
+    band.push_back(&p);
+    band_h.push_back(h);
+  }
+  const int n = static_cast<int>(std::ceil(2 * o.search_radius_m / o.grid_m));
+  cv::Mat count(n, n, CV_16U, cv::Scalar(0));
+  auto cell_of = [&](const dense::CloudPoint* p) {
+    return cv::Point(static_cast<int>((p->world.x() + o.search_radius_m) / o.grid_m),
+                     static_cast<int>((p->world.y() + o.search_radius_m) / o.grid_m));
+  };
+  for (const dense::CloudPoint* p : band) {
+    const cv::Point c = cell_of(p);
+    if (c.x >= 0 && c.y >= 0 && c.x < n && c.y < n) {
+      count.at<uint16_t>(c) = static_cast<uint16_t>(std::min(65000, count.at<uint16_t>(c) + 1));
+    }
+  }
+  cv::Mat mask = count >= o.min_cell_points, labels;
+  cv::dilate(mask, mask, cv::Mat::ones(3, 3, CV_8U));
+  const int n_labels = cv::connectedComponents(mask, labels, 8, CV_32S);
+  result.components = n_labels - 1;
+  std::vector<std::vector<int>> members(n_labels);
+  for (size_t i = 0; i < band.size(); ++i) {
+    const cv::Point c = cell_of(band[i]);
+    if (c.x < 0 || c.y < 0 || c.x >= n || c.y >= n) continue;
+    const int l = labels.at<int>(c);
+    if (l > 0) members[l].push_back(static_cast<int>(i));
+  }
+  for (int l = 1; l < n_labels; ++l) {
+    const std::vector<int>& m = members[l];
+    if (static_cast<int>(m.size()) < o.min_points) continue;
+    std::vector<Eigen::Vector2d> all_xy;
+    for (int i : m) all_xy.push_back(band[i]->world.head<2>().cast<double>());
+    Eigen::Vector2d c0;
+    double r0 = 0, rms0 = 0;
+    if (!FitCircle(all_xy, &c0, &r0, &rms0) || 2 * r0 < o.min_diameter_m ||
+        2 * r0 > o.max_diameter_m) {
+      ++result.rejected_size;
+      continue;
+    }
+    // Verticality: centroids of three sub-slices of the band on one near-vertical line.
+    const double third = (o.band_high_m - o.band_low_m) / 3;
+    std::vector<Eigen::Vector3d> cent;
+    for (int s = 0; s < 3; ++s) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      int cnt = 0;
+      for (int i : m) {
+        if (band_h[i] >= o.band_low_m + s * third && band_h[i] < o.band_low_m + (s + 1) * third) {
+          sum += Eigen::Vector3d(band[i]->world.x(), band[i]->world.y(), band_h[i]);
+          ++cnt;
+        }
+      }
+      if (cnt >= 5) cent.push_back(sum / cnt);
+    }
+    double lean_deg = 90.0;
+    if (cent.size() >= 2) {
+      const Eigen::Vector3d d = cent.back() - cent.front();
+      lean_deg = std::atan2(d.head<2>().norm(), std::abs(d.z())) * 180.0 / M_PI;
+    }
+    if (lean_deg > o.max_lean_deg) {
+      ++result.rejected_vertical;
+      continue;
+    }
+    // Breast-height slice.
+    std::vector<Eigen::Vector2d> slice;
+    std::set<int> views;
+    std::vector<double> view_dirs;
+    double half = o.slice_half_m;
+    for (int widen = 0; widen < 3 && slice.size() < 15; ++widen, half *= 2) {
+      slice.clear();
+      views.clear();
+      for (int i : m) {
+        if (std::abs(band_h[i] - o.breast_height_m) > half) continue;
+        slice.push_back(band[i]->world.head<2>().cast<double>());
+        views.insert(band[i]->keyframe);
+      }
+    }
+    if (slice.size() < 8) continue;
+    Stem s;
+    double r = r0, rms = rms0;
+    Eigen::Vector2d c = c0;
+    if (!FitCircle(slice, &c, &r, &rms) || 2 * r > o.max_diameter_m) {
+      c = c0;
+      r = r0;
+    }
+    s.dbh_circle_m = 2 * r;
+    s.dbh_slice_m = SliceWidth(slice, c);
+    s.pass_through = PassThroughRatio(band, c, r);
+    if (s.pass_through > o.free_space_veto) {
+      ++result.vetoed_free_space;
+      continue;
+    }
+    s.centre_xy = c;
+    s.ground_z_m = ground.Height(c.x(), c.y());
+    s.dbh_m = o.dbh_method == "circle" ? s.dbh_circle_m : s.dbh_slice_m;
+    s.dbh_sd_m = rms;
+    s.n_points = static_cast<int>(slice.size());
+    s.n_views = static_cast<int>(views.size());
+    s.lean_deg = lean_deg;
+    if (s.n_views < 3) s.flags.push_back("few_views");
+    result.stems.push_back(s);
+  }
+  std::sort(result.stems.begin(), result.stems.end(), [](const Stem& a, const Stem& b) {
+    return a.centre_xy.squaredNorm() < b.centre_xy.squaredNorm();
+  });
+  return result;
+}
+
+}  // namespace stemmap::stems

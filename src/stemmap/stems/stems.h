@@ -1,0 +1,58 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "stemmap/dense/stereo.h"
+#include "stemmap/stems/ground.h"
+
+namespace stemmap::stems {
+
+struct StemOptions {
+  double breast_height_m = 1.37;  // above the local ground at the stem
+  double search_radius_m = 11.0;  // stems looked for this far from the centre
+  double band_low_m = 0.9;        // detection band above the ground
+  double band_high_m = 2.1;
+  double grid_m = 0.02;  // occupancy grid of the band
+  int min_cell_points = 2;
+  int min_points = 25;
+  double min_diameter_m = 0.05;
+  double max_diameter_m = 1.2;
+  double max_lean_deg = 15.0;
+  double slice_half_m = 0.05;        // breast-height slice: ±5 cm (the paper's 0.1 m)
+  double free_space_veto = 0.4;      // rays through the stem over rays ending on it: not a stem
+  std::string dbh_method = "slice";  // slice (paper: robust width across the view) or circle
+  void Check() const;
+};
+
+struct Stem {
+  Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();  // plot frame, at breast height
+  double ground_z_m = 0.0;
+  double dbh_m = 0.0, dbh_sd_m = 0.0;
+  double dbh_slice_m = 0.0, dbh_circle_m = 0.0;  // both estimators, whichever is reported
+  int n_points = 0, n_views = 0;
+  double arc_deg = 0.0;  // spread of the viewing directions
+  double lean_deg = 0.0;
+  double pass_through = 0.0;  // free-space ratio
+  std::vector<std::string> flags;
+};
+
+struct StemsResult {
+  std::vector<Stem> stems;
+  int components = 0, rejected_size = 0, rejected_vertical = 0, vetoed_free_space = 0;
+  nlohmann::json Summary() const;
+};
+
+// Stems from the fused cloud: occupancy of the band above the ground, connected parts, a
+// verticality test, a free-space veto from the points' rays, then DBH at breast height.
+StemsResult DetectStems(const StemOptions& options, const std::vector<dense::CloudPoint>& cloud,
+                        const GroundGrid& ground);
+
+// Circle through 2-D points: algebraic start, then robust geometric refinement. Returns false
+// with fewer than 3 points. `rms_m` is the residual spread.
+bool FitCircle(const std::vector<Eigen::Vector2d>& pts, Eigen::Vector2d* centre, double* radius,
+               double* rms_m);
+
+}  // namespace stemmap::stems

@@ -1,0 +1,68 @@
+#include "stemmap/stems/stems.h"
+
+#include <gtest/gtest.h>
+
+#include "stemmap/core/rng.h"
+
+namespace stemmap::stems {
+namespace {
+
+TEST(Stems, CircleFromAnArc) {
+  Rng rng(1);
+  std::vector<Eigen::Vector2d> pts;
+  for (int i = 0; i < 200; ++i) {  // the half a camera on the arm sees, with 2 mm noise
+    const double a = rng.Uniform(-M_PI / 2, M_PI / 2);
+    pts.emplace_back(5 + 0.2 * std::cos(a + M_PI) + rng.Normal(0, 0.002),
+                     1 + 0.2 * std::sin(a + M_PI) + rng.Normal(0, 0.002));
+  }
+  Eigen::Vector2d c;
+  double r = 0, rms = 0;
+  ASSERT_TRUE(FitCircle(pts, &c, &r, &rms));
+  EXPECT_NEAR(r, 0.2, 0.005);
+  EXPECT_NEAR((c - Eigen::Vector2d(5, 1)).norm(), 0.0, 0.005);
+  EXPECT_NEAR(rms, 0.002, 0.001);
+  EXPECT_FALSE(FitCircle({{0, 0}, {1, 1}}, &c, &r, &rms));
+}
+
+// A synthetic cloud: flat ground and two trunks seen from the arm; one "trunk" is a ghost that
+// rays pass through.
+TEST(Stems, DetectsTrunksAndVetoesAGhost) {
+  Rng rng(2);
+  std::vector<dense::CloudPoint> cloud;
+  auto add = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& origin) {
+    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+  };
+  const Eigen::Vector3d cam(1, 0, 1.3);
+  for (int i = 0; i < 60000; ++i) {  // ground
+    add(Eigen::Vector3d(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01)), cam);
+  }
+  const std::vector<std::pair<Eigen::Vector2d, double>> trunks = {{{5, 0}, 0.15}, {{0, -6}, 0.25}};
+  for (const auto& [c, r] : trunks) {
+    for (int i = 0; i < 3000; ++i) {
+      const double a = rng.Uniform(0, 2 * M_PI), z = rng.Uniform(0, 3);
+      add(Eigen::Vector3d(c.x() + r * std::cos(a), c.y() + r * std::sin(a), z), cam);
+    }
+  }
+  // Ghost at (0, 6): points there, but from the axis the same directions see far beyond it.
+  for (int i = 0; i < 3000; ++i) {
+    const double a = rng.Uniform(0, 2 * M_PI), z = rng.Uniform(0, 3);
+    add(Eigen::Vector3d(0.2 * std::cos(a), 6 + 0.2 * std::sin(a), z), cam);
+  }
+  for (int i = 0; i < 2000; ++i) {  // a thin spread of far points, not a trunk
+    add(Eigen::Vector3d(rng.Uniform(-0.15, 0.15), rng.Uniform(8.5, 10.5), rng.Uniform(1.2, 1.8)),
+        Eigen::Vector3d(0, 0, 1.3));
+  }
+  const GroundGrid ground(cloud, 13, 0.5);
+  EXPECT_NEAR(ground.Height(3, 3), 0.0, 0.05);
+  StemOptions o;
+  o.dbh_method = "circle";
+  const StemsResult r = DetectStems(o, cloud, ground);
+  ASSERT_EQ(r.stems.size(), 2u);
+  EXPECT_GE(r.vetoed_free_space, 1);
+  EXPECT_NEAR((r.stems[0].centre_xy - Eigen::Vector2d(5, 0)).norm(), 0, 0.02);
+  EXPECT_NEAR(r.stems[0].dbh_m, 0.30, 0.01);
+  EXPECT_NEAR(r.stems[1].dbh_m, 0.50, 0.01);
+}
+
+}  // namespace
+}  // namespace stemmap::stems
