@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <map>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -54,12 +53,35 @@ void WriteCloudPly(const std::filesystem::path& path, const std::vector<CloudPoi
   WriteFileAtomic(path, s);
 }
 
+std::vector<cv::Mat> LoadKeyframeImages(const std::filesystem::path& video,
+                                        const std::vector<StampedPose>& keyframes,
+                                        int working_long_side_px) {
+  std::vector<cv::Mat> images(keyframes.size());
+  VideoReaderOptions vro;
+  vro.max_long_side_px = working_long_side_px;
+  VideoReader reader(video, vro);
+  const double half_frame = 0.5 / std::max(1.0, reader.info().fps);
+  size_t k = 0;
+  while (k < keyframes.size()) {
+    std::optional<DecodedFrame> f = reader.Next();
+    if (!f) break;
+    while (k < keyframes.size() && keyframes[k].t_s < f->t_s - half_frame) ++k;
+    if (k < keyframes.size() && std::abs(keyframes[k].t_s - f->t_s) <= half_frame) {
+      images[k++] = f->bgr;
+    }
+  }
+  return images;
+}
+
 DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
                      const std::filesystem::path& out_dir) {
   o.Check();
   const auto start = std::chrono::steady_clock::now();
   const int n = static_cast<int>(in.keyframes.size());
   if (n < 2) throw ProcessingError("dense depth needs at least two keyframes");
+  if (in.images.size() != in.keyframes.size()) {
+    throw ProcessingError("dense depth needs one image slot per keyframe");
+  }
   // Unwrapped headings, so "this much turn later" is a simple search.
   std::vector<double> heading(n);
   for (int k = 0; k < n; ++k) {
@@ -88,27 +110,11 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
       next_ref = heading[k] + sign * step;
     }
   }
-  std::map<int, cv::Mat> images;  // keyframe -> BGR at the working resolution
-  for (const auto& [a, b] : pairs) images[a], images[b];
-  VideoReaderOptions vro;
-  vro.max_long_side_px = o.working_long_side_px;
-  VideoReader reader(in.video, vro);
-  const double half_frame = 0.5 / std::max(1.0, reader.info().fps);
-  auto it = images.begin();
-  while (it != images.end()) {
-    std::optional<DecodedFrame> f = reader.Next();
-    if (!f) break;
-    while (it != images.end() && in.keyframes[it->first].t_s < f->t_s - half_frame) ++it;
-    if (it != images.end() && std::abs(in.keyframes[it->first].t_s - f->t_s) <= half_frame) {
-      it->second = f->bgr;
-      ++it;
-    }
-  }
   DenseResult r;
   Progress progress("depth", static_cast<int64_t>(pairs.size()));
   for (size_t i = 0; i < pairs.size(); ++i) {
     const auto [a, b] = pairs[i];
-    const cv::Mat &ia = images[a], &ib = images[b];
+    const cv::Mat &ia = in.images[a], &ib = in.images[b];
     if (ia.empty() || ib.empty()) continue;
     std::vector<CloudPoint> pts =
         StereoPairPoints(o.stereo, ia, ib, in.camera, in.keyframes[a].world_from_cam,

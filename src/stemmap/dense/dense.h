@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <vector>
 
 #include "stemmap/camera/camera.h"
@@ -14,15 +15,20 @@ struct DenseOptions {
   StereoOptions stereo;
   double pair_turn_deg = 14.0;      // turn between the two keyframes of a pair (baseline ~0.24 m)
   double reference_step_deg = 4.0;  // one reference keyframe every this much turn
-  int working_long_side_px = 960;
   void Check() const;
 };
 
 struct DenseInput {
-  std::filesystem::path video;
   PinholeCamera camera;                // at the working resolution
   std::vector<StampedPose> keyframes;  // plot frame
+  std::vector<cv::Mat> images;         // BGR keyframe images (empty Mat: not decoded)
 };
+
+// Decodes the video once and keeps the frames whose timestamps match the keyframes, at the
+// working resolution (long side; 0 = full).
+std::vector<cv::Mat> LoadKeyframeImages(const std::filesystem::path& video,
+                                        const std::vector<StampedPose>& keyframes,
+                                        int working_long_side_px);
 
 struct DenseResult {
   std::vector<CloudPoint> points;  // plot frame

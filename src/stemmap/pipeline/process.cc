@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -54,6 +55,20 @@ void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::S
   WriteFileAtomic(path, s);
 }
 
+void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems::Stem>& stems) {
+  std::string s =
+      "tree_id,x_m,y_m,dbh_tangent_cm,dbh_tangent_sd_cm,dbh_slice_cm,dbh_circle_cm,n_views,"
+      "arc_deg,lean_deg,pass_through,n_points\n";
+  int id = 0;
+  for (const stems::Stem& t : stems) {
+    s += fmt::format("{},{:.3f},{:.3f},{:.2f},{:.2f},{:.2f},{:.2f},{},{:.1f},{:.1f},{:.2f},{}\n",
+                     ++id, t.centre_xy.x(), t.centre_xy.y(), 100 * t.dbh_tangent_m,
+                     100 * t.dbh_tangent_sd_m, 100 * t.dbh_slice_m, 100 * t.dbh_circle_m, t.n_views,
+                     t.arc_deg, t.lean_deg, t.pass_through, t.n_points);
+  }
+  WriteFileAtomic(path, s);
+}
+
 std::string ProcessResult::Table() const {
   std::string s = fmt::format("{:>4} {:>8} {:>8} {:>8} {:>8} {:>6}  {}\n", "tree", "dist m",
                               "az deg", "DBH cm", "SD cm", "views", "flags");
@@ -71,6 +86,37 @@ std::string ProcessResult::Table() const {
   return s;
 }
 
+void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
+                           const std::vector<cv::Mat>& bgr, std::vector<stems::Stem>* stems) {
+  std::vector<cv::Mat> gray(bgr.size());
+  for (size_t k = 0; k < bgr.size(); ++k) {
+    if (!bgr[k].empty()) cv::cvtColor(bgr[k], gray[k], cv::COLOR_BGR2GRAY);
+  }
+  const stems::TangentViews views{&tr.camera, &tr.keyframes, &gray};
+  int fitted = 0;
+  for (stems::Stem& s : *stems) {
+    const double breast_z = s.ground_z_m + o.stems.breast_height_m;
+    const double r0 = 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
+    const stems::TangentFit f = stems::FitTangentRays(o.tangent, views, s.centre_xy, r0, breast_z);
+    if (!f.ok) {
+      if (o.stems.dbh_method == "tangent") s.flags.push_back("no_silhouette");
+      continue;
+    }
+    ++fitted;
+    s.dbh_tangent_m = 2 * f.radius_m;
+    s.dbh_tangent_sd_m = 2 * f.radius_sd_m;
+    if (o.stems.dbh_method == "tangent") {
+      s.dbh_m = s.dbh_tangent_m;
+      s.dbh_sd_m = s.dbh_tangent_sd_m;
+      s.centre_xy = f.centre;
+      s.n_views = f.views;
+      s.arc_deg = f.arc_deg;
+      if (f.views < 4) s.flags.push_back("few_views");
+    }
+  }
+  spdlog::info("stems: tangent rays fitted {} of {} stems", fitted, stems->size());
+}
+
 ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& video,
                          const std::filesystem::path& out_dir) {
   o.Check();
@@ -84,19 +130,23 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   nlohmann::json timing;
   const track::TrackResult tr = track::RunTrack(o.track, video, out_dir);
   timing["track_s"] = lap();
-  dense::DenseInput din{video, tr.camera, tr.keyframes};
-  dense::DenseOptions dopt = o.dense;
-  dopt.working_long_side_px = o.track.frontend.working_long_side_px;
-  const dense::DenseResult dr = dense::RunDense(dopt, din, out_dir);
+  dense::DenseInput din{
+      tr.camera, tr.keyframes,
+      dense::LoadKeyframeImages(video, tr.keyframes, o.track.frontend.working_long_side_px)};
+  timing["keyframe_images_s"] = lap();
+  const dense::DenseResult dr = dense::RunDense(o.dense, din, out_dir);
   timing["dense_s"] = lap();
   const stems::GroundGrid ground(dr.points, o.stems.search_radius_m + 2.0, 0.5);
-  const stems::StemsResult sr = stems::DetectStems(o.stems, dr.points, ground);
+  stems::StemsResult sr = stems::DetectStems(o.stems, dr.points, ground);
   timing["stems_s"] = lap();
+  RefineWithTangentRays(o, tr, din.images, &sr.stems);
+  timing["tangent_rays_s"] = lap();
 
   ProcessResult r;
   r.stems = sr.stems;
   r.figures = ComputePlotFigures(r.stems, o.plot_radius_m, o.min_dbh_cm);
   WriteTreesCsv(out_dir / "trees.csv", r.stems, o.stems.breast_height_m, o.plot_radius_m);
+  WriteStemDetails(out_dir / "stems_detail.csv", r.stems);
   nlohmann::json& s = r.summary;
   s["plot"] = {{"radius_m", o.plot_radius_m},
                {"min_dbh_cm", o.min_dbh_cm},

@@ -7,6 +7,7 @@
 
 #include "stemmap/dense/dense.h"
 #include "stemmap/stems/stems.h"
+#include "stemmap/stems/tangent.h"
 #include "stemmap/track/track.h"
 
 namespace stemmap::pipeline {
@@ -15,6 +16,7 @@ struct ProcessOptions {
   track::TrackOptions track;
   dense::DenseOptions dense;
   stems::StemOptions stems;
+  stems::TangentOptions tangent;
   double plot_radius_m = 10.0;  // plot figures count stems within this radius
   double min_dbh_cm = 7.0;      // and at least this thick
   void Check() const;
@@ -39,6 +41,14 @@ struct ProcessResult {
 // OUT/process_options.json and the stages' own files (trajectory.tum, cloud.ply, ...).
 ProcessResult RunProcess(const ProcessOptions& options, const std::filesystem::path& video,
                          const std::filesystem::path& out_dir);
+
+// Runs the tangent-ray estimator on every stem; with the tangent method it also replaces the
+// stem's centre and DBH.
+void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
+                           const std::vector<cv::Mat>& bgr, std::vector<stems::Stem>* stems);
+
+// Every estimator's DBH per stem (stems_detail.csv), to compare them tree by tree.
+void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems::Stem>& stems);
 
 // trees.csv as in docs/output-format.md, written atomically.
 void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::Stem>& stems,

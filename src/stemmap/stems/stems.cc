@@ -18,8 +18,8 @@ void StemOptions::Check() const {
   }
   if (!(search_radius_m > 1)) throw InputError("search radius must exceed 1 m");
   if (!(band_high_m > band_low_m)) throw InputError("detection band is empty");
-  if (dbh_method != "slice" && dbh_method != "circle") {
-    throw InputError(fmt::format("DBH method '{}' is not slice or circle", dbh_method));
+  if (dbh_method != "tangent" && dbh_method != "slice" && dbh_method != "circle") {
+    throw InputError(fmt::format("DBH method '{}' is not tangent, slice or circle", dbh_method));
   }
 }
 
@@ -226,7 +226,7 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     }
     s.centre_xy = c;
     s.ground_z_m = ground.Height(c.x(), c.y());
-    s.dbh_m = o.dbh_method == "circle" ? s.dbh_circle_m : s.dbh_slice_m;
+    s.dbh_m = o.dbh_method == "circle" ? s.dbh_circle_m : s.dbh_slice_m;  // tangent: later
     s.dbh_sd_m = rms;
     s.n_points = static_cast<int>(slice.size());
     s.n_views = static_cast<int>(views.size());

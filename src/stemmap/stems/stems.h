@@ -21,9 +21,11 @@ struct StemOptions {
   double min_diameter_m = 0.05;
   double max_diameter_m = 1.2;
   double max_lean_deg = 15.0;
-  double slice_half_m = 0.05;        // breast-height slice: ±5 cm (the paper's 0.1 m)
-  double free_space_veto = 0.4;      // rays through the stem over rays ending on it: not a stem
-  std::string dbh_method = "slice";  // slice (paper: robust width across the view) or circle
+  double slice_half_m = 0.05;    // breast-height slice: ±5 cm (the paper's 0.1 m)
+  double free_space_veto = 0.4;  // rays through the stem over rays ending on it: not a stem
+  // tangent (rays tangent to the silhouette), slice (the paper's robust width across the view) or
+  // circle (fitted to the slice)
+  std::string dbh_method = "tangent";
   void Check() const;
 };
 
@@ -31,7 +33,8 @@ struct Stem {
   Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();  // plot frame, at breast height
   double ground_z_m = 0.0;
   double dbh_m = 0.0, dbh_sd_m = 0.0;
-  double dbh_slice_m = 0.0, dbh_circle_m = 0.0;  // both estimators, whichever is reported
+  double dbh_slice_m = 0.0, dbh_circle_m = 0.0;        // every estimator, whichever is reported
+  double dbh_tangent_m = 0.0, dbh_tangent_sd_m = 0.0;  // 0 when the tangent fit failed
   int n_points = 0, n_views = 0;
   double arc_deg = 0.0;  // spread of the viewing directions
   double lean_deg = 0.0;

@@ -1,0 +1,240 @@
+#include "stemmap/stems/tangent.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+
+namespace stemmap::stems {
+
+bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
+                        const std::vector<Eigen::Vector2d>& origins, double huber_m,
+                        Eigen::Vector2d* centre, double* radius, double* radius_sd, double* rms_m,
+                        std::vector<double>* weights) {
+  const size_t n = normals.size();
+  if (n < 3) return false;
+  std::vector<double> w(n, 1.0);
+  Eigen::Vector3d x = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d ata;
+  for (int it = 0; it < 10; ++it) {
+    ata.setZero();
+    Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+    for (size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d a(normals[i].x(), normals[i].y(), -1.0);
+      ata += w[i] * a * a.transpose();
+      atb += w[i] * a * normals[i].dot(origins[i]);
+    }
+    if (std::abs(ata.determinant()) < 1e-12) return false;
+    x = ata.ldlt().solve(atb);
+    for (size_t i = 0; i < n; ++i) {
+      const double e = std::abs(normals[i].dot(x.head<2>() - origins[i]) - x.z());
+      w[i] = e <= huber_m ? 1.0 : huber_m / e;
+    }
+  }
+  double sq = 0, wsum = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const double e = normals[i].dot(x.head<2>() - origins[i]) - x.z();
+    sq += w[i] * e * e;
+    wsum += w[i];
+  }
+  const double sigma2 = sq / std::max(1.0, wsum - 3.0);
+  *centre = x.head<2>();
+  *radius = x.z();
+  *radius_sd = std::sqrt(sigma2 * ata.inverse()(2, 2));
+  *rms_m = std::sqrt(sq / wsum);
+  if (weights) *weights = w;
+  return std::isfinite(*radius) && *radius > 0;
+}
+
+namespace {
+
+float Bilinear(const cv::Mat& img, double x, double y) {
+  if (x < 0 || y < 0 || x > img.cols - 2 || y > img.rows - 2) return -1.f;
+  const int xi = static_cast<int>(x), yi = static_cast<int>(y);
+  const double fx = x - xi, fy = y - yi;
+  const uchar* r0 = img.ptr<uchar>(yi);
+  const uchar* r1 = img.ptr<uchar>(yi + 1);
+  return static_cast<float>((1 - fy) * ((1 - fx) * r0[xi] + fx * r0[xi + 1]) +
+                            fy * ((1 - fx) * r1[xi] + fx * r1[xi + 1]));
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+struct Edges {
+  bool left = false, right = false;
+  double x_left = 0, x_right = 0, y = 0;
+};
+
+// Silhouette columns of the stem in keyframe k at image row y0, from the disagreement between
+// k and its neighbours warped through the stem's front plane.
+Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eigen::Vector2d& c0,
+                double r0, double breast_z, double x_pred_left, double x_pred_right, double y0) {
+  Edges edges;
+  const PinholeCamera& cam = *v.camera;
+  const std::vector<StampedPose>& kfs = *v.keyframes;
+  const cv::Mat& img = (*v.gray)[k];
+  const Rigid3d& world_from_k = kfs[k].world_from_cam;
+  const Eigen::Vector3d ck = world_from_k.translation;
+  // Front plane of the stem, facing camera k: n . X = n . c0 + r0 (world).
+  Eigen::Vector3d n_w(ck.x() - c0.x(), ck.y() - c0.y(), 0.0);
+  n_w.normalize();
+  const double plane_d = n_w.dot(Eigen::Vector3d(c0.x(), c0.y(), breast_z)) + r0;
+  const double half_w = 0.5 * (x_pred_right - x_pred_left);
+  const double margin = std::max(o.search_px, 0.4 * half_w);
+  const int x_begin = static_cast<int>(std::floor(x_pred_left - margin));
+  const int x_end = static_cast<int>(std::ceil(x_pred_right + margin));
+  const int y_begin = static_cast<int>(std::lround(y0)) - o.rows_half;
+  const int y_end = static_cast<int>(std::lround(y0)) + o.rows_half;
+  if (x_begin < 1 || x_end > img.cols - 2 || y_begin < 1 || y_end > img.rows - 2) return edges;
+  const int width = x_end - x_begin + 1;
+  std::vector<double> diff(width, 0.0);
+  std::vector<int> count(width, 0);
+  for (int side : {-1, 1}) {
+    const int j = k + side * o.neighbour_offset;
+    if (j < 0 || j >= static_cast<int>(kfs.size()) || (*v.gray)[j].empty()) continue;
+    const Rigid3d j_from_world = kfs[j].world_from_cam.Inverse();
+    const cv::Mat& img_j = (*v.gray)[j];
+    for (int y = y_begin; y <= y_end; ++y) {
+      for (int x = x_begin; x <= x_end; ++x) {
+        // The pixel's ray meets the stem plane; that point seen from j.
+        const Eigen::Vector3d ray = world_from_k.rotation * cam.CamRayFromImage({x, y});
+        const double denom = n_w.dot(ray);
+        if (std::abs(denom) < 1e-9) continue;
+        const double t = (plane_d - n_w.dot(ck)) / denom;
+        if (t <= 0) continue;
+        const Eigen::Vector3d p_j = j_from_world * (ck + t * ray);
+        if (p_j.z() <= 0.1) continue;
+        const Eigen::Vector2d px = cam.ImageFromCam(p_j);
+        const float vj = Bilinear(img_j, px.x(), px.y());
+        if (vj < 0) continue;
+        diff[x - x_begin] += std::abs(img.at<uchar>(y, x) - vj);
+        ++count[x - x_begin];
+      }
+    }
+  }
+  for (int i = 0; i < width; ++i) {
+    if (count[i] == 0) return edges;
+    diff[i] /= count[i];
+  }
+  std::vector<double> smooth(width);
+  for (int i = 0; i < width; ++i) {
+    const int a = std::max(0, i - 1), b = std::min(width - 1, i + 1);
+    smooth[i] = (diff[a] + diff[i] + diff[b]) / 3.0;
+  }
+  // Levels: inside the predicted stem (its middle half) and outside it.
+  const double xl = x_pred_left - x_begin, xr = x_pred_right - x_begin, xm = 0.5 * (xl + xr);
+  std::vector<double> inside, out_left, out_right;
+  for (int i = 0; i < width; ++i) {
+    if (std::abs(i - xm) < 0.25 * (xr - xl)) inside.push_back(smooth[i]);
+    if (i < xl - 3) out_left.push_back(smooth[i]);
+    if (i > xr + 3) out_right.push_back(smooth[i]);
+  }
+  const double stem = Median(inside);
+  auto scan = [&](int dir, const std::vector<double>& outside, double* x_edge) {
+    if (outside.size() < 3) return false;
+    const double bg = Median(outside);
+    if (bg - stem < o.min_contrast) return false;
+    const double tau = 0.5 * (stem + bg);
+    int i = static_cast<int>(std::lround(xm));
+    while (i + dir >= 0 && i + dir < width && smooth[i + dir] <= tau) i += dir;
+    if (i + dir < 0 || i + dir >= width) return false;
+    // Crossing between i (below) and i + dir (above), linearly interpolated.
+    const double a = smooth[i], b = smooth[i + dir];
+    const double f = b > a ? (tau - a) / (b - a) : 0.5;
+    *x_edge = x_begin + i + dir * f;
+    return true;
+  };
+  edges.left = scan(-1, out_left, &edges.x_left);
+  edges.right = scan(1, out_right, &edges.x_right);
+  edges.y = y0;
+  return edges;
+}
+
+}  // namespace
+
+TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
+                          const Eigen::Vector2d& centre0, double radius0, double breast_z) {
+  TangentFit fit;
+  Eigen::Vector2d c = centre0;
+  double r = radius0;
+  const PinholeCamera& cam = *v.camera;
+  for (int round = 0; round <= o.refits; ++round) {
+    std::vector<Eigen::Vector2d> normals, origins;
+    std::vector<double> headings;
+    int views = 0;
+    for (size_t k = 0; k < v.keyframes->size(); ++k) {
+      if ((*v.gray)[k].empty()) continue;
+      const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
+      const Rigid3d cam_from_world = world_from_cam.Inverse();
+      const Eigen::Vector2d cc = world_from_cam.translation.head<2>();
+      const Eigen::Vector2d to_stem = c - cc;
+      const double d = to_stem.norm();
+      if (d < r + 0.3) continue;
+      const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
+      if (p_cam.z() < 0.5) continue;
+      const Eigen::Vector2d p_img = cam.ImageFromCam(p_cam);
+      if (p_img.x() < 0.08 * cam.width || p_img.x() > 0.92 * cam.width) continue;
+      // Predicted tangent points, left and right as seen from the camera.
+      const double alpha = std::asin(std::min(1.0, r / d));
+      const Eigen::Vector2d u = to_stem / d;
+      double xs[2];
+      for (int s = 0; s < 2; ++s) {
+        const double a = (s == 0 ? 1 : -1) * (M_PI / 2 - alpha);
+        const Eigen::Vector2d dir = Eigen::Rotation2Dd(a) * (-u);
+        const Eigen::Vector2d tp = c + r * dir;
+        const Eigen::Vector3d tp_cam = cam_from_world * Eigen::Vector3d(tp.x(), tp.y(), breast_z);
+        xs[s] = cam.ImageFromCam(tp_cam).x();
+      }
+      const double x_left = std::min(xs[0], xs[1]), x_right = std::max(xs[0], xs[1]);
+      const Edges e =
+          FindEdges(o, v, static_cast<int>(k), c, r, breast_z, x_left, x_right, p_img.y());
+      bool used = false;
+      for (int s = 0; s < 2; ++s) {
+        const bool found = s == 0 ? e.left : e.right;
+        if (!found) continue;
+        const double x = s == 0 ? e.x_left : e.x_right;
+        const Eigen::Vector3d ray = world_from_cam.rotation * cam.CamRayFromImage({x, e.y});
+        Eigen::Vector2d dir = ray.head<2>();
+        if (dir.norm() < 1e-9) continue;
+        dir.normalize();
+        Eigen::Vector2d nrm(-dir.y(), dir.x());
+        if (nrm.dot(c - cc) < 0) nrm = -nrm;
+        normals.push_back(nrm);
+        origins.push_back(cc);
+        used = true;
+      }
+      if (used) {
+        ++views;
+        const double h = std::atan2(-u.y(), -u.x());
+        headings.push_back(
+            headings.empty() ? h : headings[0] + std::remainder(h - headings[0], 2 * M_PI));
+      }
+    }
+    if (static_cast<int>(normals.size()) < o.min_rays) return fit;
+    Eigen::Vector2d c_new;
+    double r_new, r_sd, rms;
+    if (!SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms, nullptr)) {
+      return fit;
+    }
+    if ((c_new - centre0).norm() > 0.5 || r_new > 3 * radius0 + 0.1) return fit;
+    c = c_new;
+    r = r_new;
+    fit.ok = true;
+    fit.centre = c;
+    fit.radius_m = r;
+    fit.radius_sd_m = r_sd;
+    fit.rms_m = rms;
+    fit.rays = static_cast<int>(normals.size());
+    fit.views = views;
+    if (!headings.empty()) {
+      const auto [lo, hi] = std::minmax_element(headings.begin(), headings.end());
+      fit.arc_deg = (*hi - *lo) * 180.0 / M_PI;
+    }
+  }
+  return fit;
+}
+
+}  // namespace stemmap::stems

@@ -1,0 +1,53 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
+
+namespace stemmap::stems {
+
+// DBH from tangent rays: in every keyframe that sees the stem, its left and right silhouette
+// edges at breast height are rays tangent to the stem's cross-section, so each gives one linear
+// equation n . (p - c) = r in the centre p and radius r (n: the ray's horizontal normal toward
+// the stem, c: the camera centre). The edges come from depth, not brightness: a neighbouring
+// keyframe warped through the stem's own plane lines up on the stem and not on what lies behind,
+// so the stem is the run of columns where the two agree.
+struct TangentOptions {
+  int neighbour_offset = 2;   // keyframes before and after used to align on the stem
+  int rows_half = 4;          // rows averaged around breast height
+  double search_px = 8.0;     // beyond the predicted edges, at least
+  double min_contrast = 6.0;  // grey levels between stem and background disagreement
+  double huber_m = 0.004;     // robust scale of the ray residuals
+  int min_rays = 8;
+  int refits = 2;  // edge search again around the refined circle
+};
+
+struct TangentViews {
+  const PinholeCamera* camera = nullptr;                // of the images
+  const std::vector<StampedPose>* keyframes = nullptr;  // plot frame
+  const std::vector<cv::Mat>* gray = nullptr;           // CV_8U per keyframe (empty: missing)
+};
+
+struct TangentFit {
+  bool ok = false;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  double radius_m = 0.0, radius_sd_m = 0.0, rms_m = 0.0;
+  int rays = 0, views = 0;
+  double arc_deg = 0.0;  // spread of the viewing directions used
+};
+
+// Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
+TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
+                          const Eigen::Vector2d& centre0, double radius0, double breast_z);
+
+// Least squares circle tangent to horizontal lines n_i . (p - c_i) = r with Huber weights.
+// Returns false when the system is degenerate.
+bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
+                        const std::vector<Eigen::Vector2d>& origins, double huber_m,
+                        Eigen::Vector2d* centre, double* radius, double* radius_sd, double* rms_m,
+                        std::vector<double>* weights);
+
+}  // namespace stemmap::stems
