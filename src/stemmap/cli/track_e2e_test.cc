@@ -9,6 +9,7 @@
 #include "stemmap/core/io.h"
 #include "stemmap/eval/evaluate.h"
 #include "stemmap/eval/plot_io.h"
+#include "stemmap/pipeline/process.h"
 #include "stemmap/sim/simulate.h"
 #include "stemmap/track/track.h"
 #include "stemmap/video/video_writer.h"
@@ -74,6 +75,34 @@ TEST(TrackEndToEnd, RecoversTheSimulatedTrajectory) {
   track::RunTrack(o, dir / "video.mp4", dir / "again");
   EXPECT_EQ(ReadFileToString(dir / "track" / "trajectory.tum"),
             ReadFileToString(dir / "again" / "trajectory.tum"));
+  fs::remove_all(dir);
+}
+
+TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
+  const fs::path dir = TestDir("process");
+  sim::SimulateOptions so = ShortPlot(dir, 1.1);
+  so.width = 640;
+  so.height = 360;
+  sim::RunSimulate(so);
+  pipeline::ProcessOptions o;
+  o.track = OptionsFromTruth(dir / "truth.json");
+  const pipeline::ProcessResult r = pipeline::RunProcess(o, dir / "video.mp4", dir / "out");
+  for (const char* f : {"trees.csv", "summary.json", "cloud.ply", "stems_detail.csv",
+                        "trajectory.tum", "process_options.json"}) {
+    EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  }
+  const nlohmann::json summary = ReadJsonFile(dir / "out" / "summary.json");
+  EXPECT_EQ(summary["plot"]["stems"].get<int>(), r.figures.stems);
+  EXPECT_GT(r.figures.basal_area_m2_per_ha, 0.0);
+  // A short, small clip: most near trees found, none far off.
+  eval::EvaluateOptions eo;
+  eo.plot_radius_m = 8.0;
+  const eval::TruthPlot truth = eval::ReadTruthJson(dir / "truth.json");
+  const eval::MatchStats m =
+      eval::MatchAndScore(eo, truth.trees, eval::ReadTreesCsv(dir / "out" / "trees.csv"));
+  EXPECT_GE(m.recall, 0.6);
+  EXPECT_GE(m.precision, 0.6);
+  EXPECT_LT(m.dbh.mae_cm, 8.0);
   fs::remove_all(dir);
 }
 

@@ -98,7 +98,10 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
     const double r0 = 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
     const stems::TangentFit f = stems::FitTangentRays(o.tangent, views, s.centre_xy, r0, breast_z);
-    if (!f.ok) {
+    // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
+    // neighbour): keep the cloud's estimate and say so.
+    const bool plausible = f.ok && std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
+    if (!plausible) {
       if (o.stems.dbh_method == "tangent") s.flags.push_back("no_silhouette");
       continue;
     }

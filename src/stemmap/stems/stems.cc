@@ -1,6 +1,7 @@
 #include "stemmap/stems/stems.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <cmath>
@@ -120,6 +121,48 @@ double PassThroughRatio(const std::vector<const dense::CloudPoint*>& band, const
   return hits + through > 0 ? static_cast<double>(through) / (hits + through) : 1.0;
 }
 
+// Connected parts of the occupancy grid of the given band points, cells with >= min_count points.
+std::vector<std::vector<int>> SplitIntoParts(const StemOptions& o,
+                                             const std::vector<const dense::CloudPoint*>& band,
+                                             const std::vector<int>& idx, int min_count) {
+  if (idx.empty()) return {};
+  double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+  for (int i : idx) {
+    x0 = std::min<double>(x0, band[i]->world.x());
+    y0 = std::min<double>(y0, band[i]->world.y());
+    x1 = std::max<double>(x1, band[i]->world.x());
+    y1 = std::max<double>(y1, band[i]->world.y());
+  }
+  const int w = static_cast<int>((x1 - x0) / o.grid_m) + 3,
+            h = static_cast<int>((y1 - y0) / o.grid_m) + 3;
+  auto cell_of = [&](int i) {
+    return cv::Point(static_cast<int>((band[i]->world.x() - x0) / o.grid_m) + 1,
+                     static_cast<int>((band[i]->world.y() - y0) / o.grid_m) + 1);
+  };
+  cv::Mat count(h, w, CV_32S, cv::Scalar(0));
+  for (int i : idx) ++count.at<int>(cell_of(i));
+  cv::Mat mask = count >= min_count, labels;
+  cv::dilate(mask, mask, cv::Mat::ones(3, 3, CV_8U));
+  const int n_labels = cv::connectedComponents(mask, labels, 8, CV_32S);
+  std::vector<std::vector<int>> parts(std::max(0, n_labels - 1));
+  for (int i : idx) {
+    const cv::Point c = cell_of(i);
+    // Points in sparse cells only join a part their cell was dilated into.
+    const int l = labels.at<int>(c);
+    if (l > 0) parts[l - 1].push_back(i);
+  }
+  return parts;
+}
+
+bool IsTooWide(const StemOptions& o, const std::vector<const dense::CloudPoint*>& band,
+               const std::vector<int>& part) {
+  std::vector<Eigen::Vector2d> xy;
+  for (int i : part) xy.push_back(band[i]->world.head<2>().cast<double>());
+  Eigen::Vector2d c;
+  double r = 0, rms = 0;
+  return !FitCircle(xy, &c, &r, &rms) || 2 * r > o.max_diameter_m;
+}
+
 }  // namespace
 
 StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoint>& cloud,
@@ -137,32 +180,26 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     band.push_back(&p);
     band_h.push_back(h);
   }
-  const int n = static_cast<int>(std::ceil(2 * o.search_radius_m / o.grid_m));
-  cv::Mat count(n, n, CV_16U, cv::Scalar(0));
-  auto cell_of = [&](const dense::CloudPoint* p) {
-    return cv::Point(static_cast<int>((p->world.x() + o.search_radius_m) / o.grid_m),
-                     static_cast<int>((p->world.y() + o.search_radius_m) / o.grid_m));
-  };
-  for (const dense::CloudPoint* p : band) {
-    const cv::Point c = cell_of(p);
-    if (c.x >= 0 && c.y >= 0 && c.x < n && c.y < n) {
-      count.at<uint16_t>(c) = static_cast<uint16_t>(std::min(65000, count.at<uint16_t>(c) + 1));
+  // Parts of the band: connected occupied cells. A part too wide to be one stem (two trunks
+  // smeared together by depth noise) is split again on its denser cells.
+  std::vector<std::vector<int>> parts;
+  std::vector<int> all(band.size());
+  for (size_t i = 0; i < band.size(); ++i) all[i] = static_cast<int>(i);
+  std::vector<std::pair<std::vector<int>, int>> queue = {{all, o.min_cell_points}};
+  while (!queue.empty()) {
+    auto [idx, min_count] = std::move(queue.back());
+    queue.pop_back();
+    for (std::vector<int>& part : SplitIntoParts(o, band, idx, min_count)) {
+      if (static_cast<int>(part.size()) < o.min_points) continue;
+      if (o.split_wide_parts && min_count < 8 * o.min_cell_points && IsTooWide(o, band, part)) {
+        queue.emplace_back(std::move(part), 2 * min_count);
+      } else {
+        parts.push_back(std::move(part));
+      }
     }
   }
-  cv::Mat mask = count >= o.min_cell_points, labels;
-  cv::dilate(mask, mask, cv::Mat::ones(3, 3, CV_8U));
-  const int n_labels = cv::connectedComponents(mask, labels, 8, CV_32S);
-  result.components = n_labels - 1;
-  std::vector<std::vector<int>> members(n_labels);
-  for (size_t i = 0; i < band.size(); ++i) {
-    const cv::Point c = cell_of(band[i]);
-    if (c.x < 0 || c.y < 0 || c.x >= n || c.y >= n) continue;
-    const int l = labels.at<int>(c);
-    if (l > 0) members[l].push_back(static_cast<int>(i));
-  }
-  for (int l = 1; l < n_labels; ++l) {
-    const std::vector<int>& m = members[l];
-    if (static_cast<int>(m.size()) < o.min_points) continue;
+  result.components = static_cast<int>(parts.size());
+  for (const std::vector<int>& m : parts) {
     std::vector<Eigen::Vector2d> all_xy;
     for (int i : m) all_xy.push_back(band[i]->world.head<2>().cast<double>());
     Eigen::Vector2d c0;
@@ -170,6 +207,8 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     if (!FitCircle(all_xy, &c0, &r0, &rms0) || 2 * r0 < o.min_diameter_m ||
         2 * r0 > o.max_diameter_m) {
       ++result.rejected_size;
+      spdlog::debug("stems: part of {} points at ({:.2f}, {:.2f}) rejected: diameter {:.2f} m",
+                    m.size(), c0.x(), c0.y(), 2 * r0);
       continue;
     }
     // Verticality: centroids of three sub-slices of the band on one near-vertical line.
@@ -193,6 +232,8 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     }
     if (lean_deg > o.max_lean_deg) {
       ++result.rejected_vertical;
+      spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: lean {:.1f}°", c0.x(), c0.y(),
+                    lean_deg);
       continue;
     }
     // Breast-height slice.
@@ -222,6 +263,8 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     s.pass_through = PassThroughRatio(band, c, r);
     if (s.pass_through > o.free_space_veto) {
       ++result.vetoed_free_space;
+      spdlog::debug("stems: part at ({:.2f}, {:.2f}) vetoed: {:.0f}% of rays pass through", c.x(),
+                    c.y(), 100 * s.pass_through);
       continue;
     }
     s.centre_xy = c;

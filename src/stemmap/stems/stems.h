@@ -17,6 +17,7 @@ struct StemOptions {
   double band_high_m = 2.1;
   double grid_m = 0.02;  // occupancy grid of the band
   int min_cell_points = 2;
+  bool split_wide_parts = false;  // re-split parts too wide for one stem on denser cells
   int min_points = 25;
   double min_diameter_m = 0.05;
   double max_diameter_m = 1.2;

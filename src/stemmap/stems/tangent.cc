@@ -78,10 +78,12 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   const cv::Mat& img = (*v.gray)[k];
   const Rigid3d& world_from_k = kfs[k].world_from_cam;
   const Eigen::Vector3d ck = world_from_k.translation;
-  // Front plane of the stem, facing camera k: n . X = n . c0 + r0 (world).
+  // Plane through the stem's axis, facing camera k: the silhouette lies at the axis' depth (the
+  // front face is nearer, but the edges are what must line up). n . X = n . c0 (world).
   Eigen::Vector3d n_w(ck.x() - c0.x(), ck.y() - c0.y(), 0.0);
   n_w.normalize();
-  const double plane_d = n_w.dot(Eigen::Vector3d(c0.x(), c0.y(), breast_z)) + r0;
+  const double plane_d = n_w.dot(Eigen::Vector3d(c0.x(), c0.y(), breast_z));
+  (void)r0;
   const double half_w = 0.5 * (x_pred_right - x_pred_left);
   const double margin = std::max(o.search_px, 0.4 * half_w);
   const int x_begin = static_cast<int>(std::floor(x_pred_left - margin));
@@ -133,6 +135,29 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
     if (i > xr + 3) out_right.push_back(smooth[i]);
   }
   const double stem = Median(inside);
+  // Brightness across the rows, for sub-pixel refinement on the image edge itself.
+  std::vector<double> row(width, 0.0);
+  for (int y = y_begin; y <= y_end; ++y) {
+    for (int x = x_begin; x <= x_end; ++x) row[x - x_begin] += img.at<uchar>(y, x);
+  }
+  auto refine = [&](double x0) {
+    // Strongest brightness step within 1.5 px of the depth edge; parabola through its peak.
+    const int i0 = static_cast<int>(std::lround(x0 - x_begin));
+    int best = -1;
+    double best_g = 0;
+    for (int i = std::max(1, i0 - 2); i <= std::min(width - 2, i0 + 2); ++i) {
+      const double g = std::abs(row[i + 1] - row[i - 1]);
+      if (g > best_g && std::abs(i - (x0 - x_begin)) <= 1.5) {
+        best_g = g;
+        best = i;
+      }
+    }
+    if (best <= 1 || best >= width - 2 || best_g < 4.0 * (2 * o.rows_half + 1)) return x0;
+    const double gm = std::abs(row[best] - row[best - 2]), gp = std::abs(row[best + 2] - row[best]);
+    const double den = gm - 2 * best_g + gp;
+    const double off = den < 0 ? 0.5 * (gm - gp) / den : 0.0;
+    return x_begin + best + std::clamp(off, -0.5, 0.5);
+  };
   auto scan = [&](int dir, const std::vector<double>& outside, double* x_edge) {
     if (outside.size() < 3) return false;
     const double bg = Median(outside);
@@ -149,6 +174,10 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   };
   edges.left = scan(-1, out_left, &edges.x_left);
   edges.right = scan(1, out_right, &edges.x_right);
+  if (o.refine_on_brightness) {
+    if (edges.left) edges.x_left = refine(edges.x_left);
+    if (edges.right) edges.x_right = refine(edges.x_right);
+  }
   edges.y = y0;
   return edges;
 }

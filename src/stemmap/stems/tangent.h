@@ -22,7 +22,8 @@ struct TangentOptions {
   double min_contrast = 6.0;  // grey levels between stem and background disagreement
   double huber_m = 0.004;     // robust scale of the ray residuals
   int min_rays = 8;
-  int refits = 2;  // edge search again around the refined circle
+  int refits = 2;                    // edge search again around the refined circle
+  bool refine_on_brightness = true;  // move each edge onto the nearby brightness step
 };
 
 struct TangentViews {

@@ -1,0 +1,52 @@
+#include "stemmap/stems/tangent.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include "stemmap/core/rng.h"
+
+namespace stemmap::stems {
+namespace {
+
+// Tangent lines to a circle from cameras along the arm's arc, a few of them clipped by an
+// occluder: the fit recovers centre and radius and ignores the clipped rays.
+TEST(Tangent, CircleFromTangentRays) {
+  const Eigen::Vector2d centre(5.0, 1.0);
+  const double radius = 0.2;
+  Rng rng(3);
+  std::vector<Eigen::Vector2d> normals, origins;
+  for (int k = 0; k < 30; ++k) {
+    const double phi = -0.3 + 0.6 * k / 29.0;
+    const Eigen::Vector2d c(std::cos(phi), std::sin(phi));
+    const Eigen::Vector2d to = centre - c;
+    const double d = to.norm(), alpha = std::asin(radius / d);
+    for (int side : {-1, 1}) {
+      // Edge ray direction, with 0.3 mrad of edge noise; every tenth ray clipped by 2 cm.
+      double a = side * alpha + rng.Normal(0, 3e-4);
+      if (k % 10 == 0 && side == 1) a -= 0.02 / d;
+      const Eigen::Vector2d dir = Eigen::Rotation2Dd(a) * (to / d);
+      Eigen::Vector2d n(-dir.y(), dir.x());
+      if (n.dot(centre - c) < 0) n = -n;
+      normals.push_back(n);
+      origins.push_back(c);
+    }
+  }
+  Eigen::Vector2d fitted;
+  double r = 0, r_sd = 0, rms = 0;
+  ASSERT_TRUE(SolveTangentCircle(normals, origins, 0.004, &fitted, &r, &r_sd, &rms, nullptr));
+  EXPECT_NEAR(r, radius, 0.002);
+  EXPECT_NEAR((fitted - centre).norm(), 0.0, 0.03);
+  EXPECT_GT(r_sd, 0.0);
+  EXPECT_LT(r_sd, 0.003);
+}
+
+TEST(Tangent, DegenerateSystems) {
+  Eigen::Vector2d c;
+  double r, sd, rms;
+  EXPECT_FALSE(
+      SolveTangentCircle({{1, 0}, {0, 1}}, {{0, 0}, {0, 0}}, 0.004, &c, &r, &sd, &rms, nullptr));
+}
+
+}  // namespace
+}  // namespace stemmap::stems
