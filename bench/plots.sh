@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# Tree-list benchmark: `stemmap process` on simulated plots (rendered once into DATA and reused),
+# scored by `stemmap evaluate` for trees with DBH >= 10 cm within 10 m, for each DBH estimator.
+# Usage: bench/plots.sh [BUILD_DIR] [DATA_DIR]
+#   SEEDS, KINDS, HEIGHT_SOURCE, SIM_ARGS as in bench/trajectory.sh.
+# The default estimator runs the whole pipeline (timed); the others reuse nothing and are scored
+# from stems_detail.csv of the same run, so all estimators see the same detections.
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+build=${1:-build}
+data=${2:-/tmp/stemmap-bench-plots}
+bin="$build/src/stemmap/cli/stemmap"
+seeds=${SEEDS:-1 2 3 4 5}
+kinds=${KINDS:-managed natural}
+height_source=${HEIGHT_SOURCE:-measured}
+mkdir -p "$data"
+
+seconds() {
+  grep "Elapsed (wall clock)" "$1" | awk '{print $NF}' |
+    awk -F: '{ if (NF==3) print $1*3600+$2*60+$3; else print $1*60+$2 }'
+}
+
+echo "| plot | estimator | recall | precision | DBH MAE (cm) | RMSE (cm) | bias (cm) | MARE (%) | position RMSE (cm) | wall (s): total / track / dense / stems+tangent | peak RSS (MiB) |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
+for kind in $kinds; do
+  for seed in $seeds; do
+    plot="$data/$kind-$seed"
+    if [ ! -f "$plot/video.mp4" ]; then
+      "$bin" --log-level warn simulate --seed "$seed" --kind "$kind" --out "$plot" --stills 0 \
+        ${SIM_ARGS:-} > /dev/null 2> "$plot.simulate.log" || { echo "simulate failed: $plot" >&2; continue; }
+    fi
+    python3 "$here/truth_calibration.py" "$plot/truth.json" "$plot/calibration.yaml"
+    extra=()
+    if [ "$height_source" = measured ]; then
+      extra+=(--camera-height "$(python3 -c "import json;print(json.load(open('$plot/truth.json'))['camera_height_m'])")")
+    fi
+    arm=$(python3 -c "import json;print(json.load(open('$plot/truth.json'))['arm_radius_m'])")
+    out="$plot/process"
+    rm -rf "$out"
+    if ! /usr/bin/time -v "$bin" --log-level warn process "$plot/video.mp4" --arm-radius "$arm" \
+        --calibration "$plot/calibration.yaml" "${extra[@]}" --out "$out" \
+        > "$plot.process.log" 2> "$plot.process.time"; then
+      echo "| $kind-$seed | failed: $(grep -m1 'stemmap:' "$plot.process.time" || tail -1 "$plot.process.time") ||||||||||"
+      continue
+    fi
+    wall=$(seconds "$plot.process.time")
+    rss=$(grep "Maximum resident" "$plot.process.time" | awk '{print int($NF/1024)}')
+    # One trees.csv per estimator, from the same detections.
+    python3 - "$out" <<'PY'
+import csv, sys
+out = sys.argv[1]
+rows = list(csv.DictReader(open(f"{out}/stems_detail.csv")))
+trees = {r["tree_id"]: r for r in csv.DictReader(open(f"{out}/trees.csv"))}
+for est in ("tangent", "slice", "circle"):
+    with open(f"{out}/trees_{est}.csv", "w") as f:
+        f.write("tree_id,x_m,y_m,z_m,dbh_cm,dbh_sd_cm,distance_m,azimuth_deg,n_views,flags\n")
+        for r in rows:
+            d = float(r[f"dbh_{est}_cm"])
+            if d <= 0:  # no tangent fit for this stem: its reported value stands in
+                d = float(trees[r["tree_id"]]["dbh_cm"])
+            t = trees[r["tree_id"]]
+            f.write(f"{r['tree_id']},{t['x_m']},{t['y_m']},{t['z_m']},{d},0,{t['distance_m']},"
+                    f"{t['azimuth_deg']},{t['n_views']},{t['flags']}\n")
+PY
+    for est in tangent slice circle; do
+      "$bin" --log-level warn evaluate --truth "$plot/truth.json" --pred "$out/trees_$est.csv" \
+        --min-dbh 10 --plot-radius 10 --out "$out/eval_$est" > /dev/null
+      python3 - "$kind-$seed" "$est" "$wall" "$rss" "$out" <<'PY'
+import json, sys
+name, est, wall, rss, out = sys.argv[1:]
+e = json.load(open(f"{out}/eval_{est}/evaluation.json"))["raw"]
+s = json.load(open(f"{out}/summary.json"))["timing_s"]
+d = e["dbh"]
+timing = (f"{float(wall):.1f} / {s['track_s']:.1f} / {s['keyframe_images_s'] + s['dense_s']:.1f} / "
+          f"{s['stems_s'] + s['tangent_rays_s']:.1f}") if est == "tangent" else ""
+print(f"| {name} | {est} | {e['recall']:.3f} | {e['precision']:.3f} | {d['mae_cm']:.2f} | "
+      f"{d['rmse_cm']:.2f} | {d['bias_cm']:+.2f} | {d['mare_pct']:.2f} | "
+      f"{100 * e['position_rmse_m']:.1f} | {timing} | {rss if est == 'tangent' else ''} |")
+PY
+    done
+  done
+done
