@@ -71,7 +71,7 @@ name, est, wall, rss, out = sys.argv[1:]
 e = json.load(open(f"{out}/eval_{est}/evaluation.json"))["raw"]
 s = json.load(open(f"{out}/summary.json"))["timing_s"]
 d = e["dbh"]
-timing = (f"{float(wall):.1f} / {s['track_s']:.1f} / {s['keyframe_images_s'] + s['dense_s']:.1f} / "
+timing = (f"{float(wall):.1f} / {s['track_s']:.1f} / {s['dense_s']:.1f} / "
           f"{s['stems_s'] + s['tangent_rays_s']:.1f}") if est == "tangent" else ""
 print(f"| {name} | {est} | {e['recall']:.3f} | {e['precision']:.3f} | {d['mae_cm']:.2f} | "
       f"{d['rmse_cm']:.2f} | {d['bias_cm']:+.2f} | {d['mare_pct']:.2f} | "

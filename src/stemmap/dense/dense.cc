@@ -10,7 +10,6 @@
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/core/progress.h"
-#include "stemmap/video/video_reader.h"
 
 namespace stemmap::dense {
 
@@ -51,26 +50,6 @@ void WriteCloudPly(const std::filesystem::path& path, const std::vector<CloudPoi
     p += record;
   }
   WriteFileAtomic(path, s);
-}
-
-std::vector<cv::Mat> LoadKeyframeImages(const std::filesystem::path& video,
-                                        const std::vector<StampedPose>& keyframes,
-                                        int working_long_side_px) {
-  std::vector<cv::Mat> images(keyframes.size());
-  VideoReaderOptions vro;
-  vro.max_long_side_px = working_long_side_px;
-  VideoReader reader(video, vro);
-  const double half_frame = 0.5 / std::max(1.0, reader.info().fps);
-  size_t k = 0;
-  while (k < keyframes.size()) {
-    std::optional<DecodedFrame> f = reader.Next();
-    if (!f) break;
-    while (k < keyframes.size() && keyframes[k].t_s < f->t_s - half_frame) ++k;
-    if (k < keyframes.size() && std::abs(keyframes[k].t_s - f->t_s) <= half_frame) {
-      images[k++] = f->bgr;
-    }
-  }
-  return images;
 }
 
 DenseResult RunDense(const DenseOptions& o, const DenseInput& in,

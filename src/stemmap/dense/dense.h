@@ -24,12 +24,6 @@ struct DenseInput {
   std::vector<cv::Mat> images;         // BGR keyframe images (empty Mat: not decoded)
 };
 
-// Decodes the video once and keeps the frames whose timestamps match the keyframes, at the
-// working resolution (long side; 0 = full).
-std::vector<cv::Mat> LoadKeyframeImages(const std::filesystem::path& video,
-                                        const std::vector<StampedPose>& keyframes,
-                                        int working_long_side_px);
-
 struct DenseResult {
   std::vector<CloudPoint> points;  // plot frame
   int pairs = 0;

@@ -131,12 +131,12 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
     return s;
   };
   nlohmann::json timing;
-  const track::TrackResult tr = track::RunTrack(o.track, video, out_dir);
+  // The front end keeps the keyframe images: the video is decoded once.
+  track::TrackOptions topt = o.track;
+  topt.frontend.keep_keyframe_images = true;
+  track::TrackResult tr = track::RunTrack(topt, video, out_dir);
   timing["track_s"] = lap();
-  dense::DenseInput din{
-      tr.camera, tr.keyframes,
-      dense::LoadKeyframeImages(video, tr.keyframes, o.track.frontend.working_long_side_px)};
-  timing["keyframe_images_s"] = lap();
+  dense::DenseInput din{tr.camera, tr.keyframes, std::move(tr.keyframe_images)};
   const dense::DenseResult dr = dense::RunDense(o.dense, din, out_dir);
   timing["dense_s"] = lap();
   const stems::GroundGrid ground(dr.points, o.stems.search_radius_m + 2.0, 0.5);

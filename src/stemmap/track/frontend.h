@@ -22,6 +22,7 @@ struct FrontendOptions {
   double max_forward_backward_px = 0.8;  // KLT consistency check
   double keyframe_step_deg = 2.0;        // apparent rotation between keyframes
   int orb_features = 800;                // per keyframe, for loop closure
+  bool keep_keyframe_images = false;     // keep each keyframe's BGR image for later stages
   double dark_mean_luma = 20.0;          // frames darker than this (0-255) count as dark
   double segment_min_length = 0.2;       // vertical segments: shortest, as a share of height
   double segment_max_tilt_deg = 15.0;    // and furthest from the image vertical
@@ -44,6 +45,7 @@ struct Keyframe {
   cv::Mat orb_descriptors;
   // Long near-vertical line segments (x0, y0, x1, y1, working px): trunk edges, for "up".
   std::vector<cv::Vec4f> vertical_segments;
+  cv::Mat bgr;  // working resolution, when FrontendOptions::keep_keyframe_images
 };
 
 struct FrontendResult {

@@ -210,6 +210,7 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   for (size_t k = 0; k < map.centre_world.size(); ++k) {
     const Rigid3d axis_from_cam{map.cam_from_world[k].conjugate(), map.centre_world[k]};
     r.keyframes.push_back({f.keyframes[k].t_s, r.plot_from_axis * axis_from_cam});
+    r.keyframe_images.push_back(f.keyframes[k].bgr);
   }
   for (const Eigen::Vector3d& p : pts_axis) r.points_plot.push_back(r.plot_from_axis * p);
   r.frames = InterpolateFrames(f.frame_t_s, r.keyframes);
