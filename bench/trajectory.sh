@@ -54,7 +54,7 @@ for kind in $kinds; do
     python3 - "$kind-$seed" "$wall" "$rss" "$out" "$plot/truth.json" <<'PY'
 import json, sys
 name, wall, rss, out, truth = sys.argv[1:]
-s = json.load(open(f"{out}/track_summary.json"))
+s = json.load(open(f"{out}/summary.json"))["track"]
 e = json.load(open(f"{out}/eval/evaluation.json"))["trajectory"]
 t = s["timing_s"]
 tilt_true = json.load(open(truth))["rig"]["stand_tilt_deg"]

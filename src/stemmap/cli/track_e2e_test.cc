@@ -55,8 +55,8 @@ TEST(TrackEndToEnd, RecoversTheSimulatedTrajectory) {
   sim::RunSimulate(ShortPlot(dir, 1.1));
   const track::TrackOptions o = OptionsFromTruth(dir / "truth.json");
   const track::TrackResult r = track::RunTrack(o, dir / "video.mp4", dir / "track");
-  for (const char* f : {"trajectory.tum", "keyframes.tum", "sparse.ply", "track_summary.json",
-                        "track_options.json"}) {
+  for (const char* f :
+       {"trajectory.tum", "keyframes.tum", "sparse.ply", "summary.json", "track_options.json"}) {
     EXPECT_TRUE(fs::exists(dir / "track" / f)) << f;
   }
   EXPECT_EQ(r.frames.size(), 90u);

@@ -50,7 +50,7 @@ struct TrackResult {
 };
 
 // `stemmap track`: camera trajectory with metric scale from the arm radius. Writes
-// OUT/trajectory.tum, OUT/keyframes.tum, OUT/sparse.ply, OUT/track_summary.json and
+// OUT/trajectory.tum, OUT/keyframes.tum, OUT/sparse.ply, OUT/summary.json ({"track": ...}) and
 // OUT/track_options.json. Throws InputError for unreadable, too dark or too short videos and
 // ProcessingError when tracking cannot be recovered.
 TrackResult RunTrack(const TrackOptions& options, const std::filesystem::path& video,

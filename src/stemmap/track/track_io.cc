@@ -23,7 +23,7 @@ void WriteTrackOutputs(const std::filesystem::path& out_dir, const TrackResult& 
   WriteTumTrajectory(out_dir / "trajectory.tum", r.frames);
   WriteTumTrajectory(out_dir / "keyframes.tum", r.keyframes);
   WritePointsPly(out_dir / "sparse.ply", r.points_plot);
-  WriteJsonAtomic(out_dir / "track_summary.json", r.summary);
+  WriteJsonAtomic(out_dir / "summary.json", {{"track", r.summary}});
 }
 
 nlohmann::json ToJson(const TrackOptions& o) {
