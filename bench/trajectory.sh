@@ -24,8 +24,8 @@ seconds() {  # GNU time's wall clock (h:mm:ss or m:ss.ss) in seconds
     awk -F: '{ if (NF==3) print $1*3600+$2*60+$3; else print $1*60+$2 }'
 }
 
-echo "| plot | frames | track wall (s) | decode+KLT / loop / BA (s) | peak RSS (MiB) | ATE (cm) | scale (%) | rot mean / max (°) | loop before → after (°) | tilt est (°) | height (m) |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| plot | frames | track wall (s) | decode+KLT / loop / BA (s) | peak RSS (MiB) | ATE (cm) | scale (%) | rot mean / max (°) | heading offset / up error (°) | loop before → after (°) | tilt est (°) | height (m) |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
 for kind in $kinds; do
   for seed in $seeds; do
     plot="$data/$kind-$seed"
@@ -62,6 +62,7 @@ print(f"| {name} | {s['video']['frames']} | {float(wall):.1f} | "
       f"{t['decode_and_klt_s']:.1f} / {t['loop_detection_s']:.1f} / {t['bundle_adjustment_s']:.1f} | "
       f"{rss} | {100 * e['ate_rmse_m']:.2f} | {e['scale_error_pct']:+.3f} | "
       f"{e['mean_rotation_error_deg']:.3f} / {e['max_rotation_error_deg']:.3f} | "
+      f"{e['heading_offset_deg']:+.2f} / {e['mean_up_error_deg']:.2f} | "
       f"{s['loop_error_before_deg']:.2f} → {s['loop_error_after_deg']:.3f} | "
       f"{s['stand_tilt_deg']:.2f} (true {tilt_true:.2f}) | {s['camera_height_m']:.3f} ({s['camera_height_source']}) |")
 PY

@@ -40,6 +40,10 @@ struct TrajectoryStats {
   double scale_error_pct = 0;  // least-squares size of the aligned estimate over the truth, - 1
   double yaw_deg = 0;
   double max_rotation_error_deg = 0, mean_rotation_error_deg = 0;
+  // The rotation error split in two: the mean signed difference of the horizontal viewing
+  // directions after the alignment (the camera's heading against its place on the circle), and
+  // the mean angle between the cameras' "up" directions (the vertical).
+  double heading_offset_deg = 0, mean_up_error_deg = 0;
 };
 
 struct Evaluation {

@@ -85,7 +85,7 @@ TrajectoryStats CompareTrajectories(const std::vector<StampedPose>& truth,
   const double yaw = std::atan2(scross, sdot);
   s.yaw_deg = yaw / kDeg;
   const Eigen::Quaterniond rz(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
-  double sq = 0, num = 0, den = 0, rot_sum = 0;
+  double sq = 0, num = 0, den = 0, rot_sum = 0, heading_sum = 0, up_sum = 0;
   for (const auto& [t, e] : pairs) {
     const Eigen::Vector3d p = rz * e->translation;
     sq += (p - t->translation).squaredNorm();
@@ -93,12 +93,21 @@ TrajectoryStats CompareTrajectories(const std::vector<StampedPose>& truth,
     den += t->translation.squaredNorm();
     const double ang = (rz * e->rotation).angularDistance(t->rotation) / kDeg;
     rot_sum += ang;
+    const Eigen::Vector3d fe = rz * e->rotation * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d ft = t->rotation * Eigen::Vector3d::UnitZ();
+    heading_sum +=
+        std::remainder(std::atan2(fe.y(), fe.x()) - std::atan2(ft.y(), ft.x()), 2 * M_PI);
+    const Eigen::Vector3d ue = e->rotation * -Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d ut = t->rotation * -Eigen::Vector3d::UnitY();
+    up_sum += std::acos(std::clamp(ue.normalized().dot(ut.normalized()), -1.0, 1.0));
     s.max_rotation_error_deg = std::max(s.max_rotation_error_deg, ang);
   }
   s.ate_rmse_m = std::sqrt(sq / pairs.size());
   // Scale of the estimate relative to the truth: argmin_k Σ|p - k t|².
   s.scale_error_pct = den > 0 ? 100.0 * (num / den - 1.0) : 0.0;
   s.mean_rotation_error_deg = rot_sum / pairs.size();
+  s.heading_offset_deg = heading_sum / pairs.size() / kDeg;
+  s.mean_up_error_deg = up_sum / pairs.size() / kDeg;
   return s;
 }
 
@@ -129,10 +138,10 @@ std::string Evaluation::ToMarkdown() const {
     const TrajectoryStats& t = trajectory;
     md += fmt::format(
         "\n## Trajectory\n\n| poses | ATE RMSE (cm) | scale error (%) | yaw (°) | rotation error "
-        "mean/max (°) |\n|---|---|---|---|---|\n| {} | {:.2f} | {:+.3f} | {:+.2f} | {:.3f} / "
-        "{:.3f} |\n",
+        "mean/max (°) | heading offset (°) | up error (°) |\n|---|---|---|---|---|---|---|\n"
+        "| {} | {:.2f} | {:+.3f} | {:+.2f} | {:.3f} / {:.3f} | {:+.3f} | {:.3f} |\n",
         t.n_poses, 100.0 * t.ate_rmse_m, t.scale_error_pct, t.yaw_deg, t.mean_rotation_error_deg,
-        t.max_rotation_error_deg);
+        t.max_rotation_error_deg, t.heading_offset_deg, t.mean_up_error_deg);
   }
   return md;
 }
@@ -147,7 +156,9 @@ void to_json(nlohmann::json& j, const Evaluation& e) {
                        {"scale_error_pct", t.scale_error_pct},
                        {"yaw_deg", t.yaw_deg},
                        {"mean_rotation_error_deg", t.mean_rotation_error_deg},
-                       {"max_rotation_error_deg", t.max_rotation_error_deg}};
+                       {"max_rotation_error_deg", t.max_rotation_error_deg},
+                       {"heading_offset_deg", t.heading_offset_deg},
+                       {"mean_up_error_deg", t.mean_up_error_deg}};
   }
 }
 

@@ -115,6 +115,32 @@ TEST(Evaluate, TrajectoryAteScaleAndYaw) {
   EXPECT_NEAR(e.trajectory.max_rotation_error_deg, 0.0, 1e-6);
 }
 
+// Cameras looking outward from a circle; the estimate turned on the spot, or tilted.
+TEST(Evaluate, RotationErrorSplitsIntoHeadingAndUp) {
+  Eigen::Matrix3d arm_from_cam;
+  arm_from_cam << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  const Eigen::Quaterniond mount(arm_from_cam);
+  TruthPlot truth = MakeTruth();
+  std::vector<StampedPose> turned, tilted;
+  const Eigen::Quaterniond heading(Eigen::AngleAxisd(2.0 * M_PI / 180, Eigen::Vector3d::UnitZ()));
+  const Eigen::Quaterniond tilt(Eigen::AngleAxisd(0.5 * M_PI / 180, Eigen::Vector3d::UnitX()));
+  for (int i = 0; i < 100; ++i) {
+    const double th = i * 0.0628;
+    const Eigen::Quaterniond rz(Eigen::AngleAxisd(th, Eigen::Vector3d::UnitZ()));
+    const Rigid3d p{rz * mount, Eigen::Vector3d(std::cos(th), std::sin(th), 1.3)};
+    truth.poses.push_back({i / 30.0, p});
+    turned.push_back({i / 30.0, {heading * p.rotation, p.translation}});
+    tilted.push_back({i / 30.0, {tilt * p.rotation, p.translation}});
+  }
+  const TrajectoryStats a = CompareTrajectories(truth.poses, turned);
+  EXPECT_NEAR(a.heading_offset_deg, 2.0, 1e-6);
+  EXPECT_NEAR(a.mean_up_error_deg, 0.0, 1e-6);
+  EXPECT_NEAR(a.mean_rotation_error_deg, 2.0, 1e-6);
+  const TrajectoryStats b = CompareTrajectories(truth.poses, tilted);
+  EXPECT_NEAR(b.mean_up_error_deg, 0.5, 1e-6);
+  EXPECT_NEAR(b.heading_offset_deg, 0.0, 0.01);
+}
+
 TEST(PlotIo, TreesCsvErrorsAreClear) {
   const auto dir = std::filesystem::temp_directory_path() / "stemmap_eval_test";
   WriteFileAtomic(dir / "bad.csv", "a,b\n1,2\n");
