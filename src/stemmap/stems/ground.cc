@@ -26,36 +26,53 @@ GroundGrid::GroundGrid(const std::vector<dense::CloudPoint>& points, double radi
     z_[c] = v[q];
     ++measured_;
   }
-  // Cells far above their neighbours are shrubs or stems seen without ground: drop, then fill.
-  for (int pass = 0; pass < 2 * n_; ++pass) {
-    bool changed = false;
-    std::vector<float> next = z_;
-    for (int j = 0; j < n_; ++j) {
-      for (int i = 0; i < n_; ++i) {
-        if (!std::isnan(z_[static_cast<size_t>(j) * n_ + i])) continue;
-        double sum = 0;
-        int cnt = 0;
-        for (int dj = -1; dj <= 1; ++dj) {
-          for (int di = -1; di <= 1; ++di) {
-            const int ii = i + di, jj = j + dj;
-            if (ii < 0 || jj < 0 || ii >= n_ || jj >= n_) continue;
-            const float z = z_[static_cast<size_t>(jj) * n_ + ii];
-            if (!std::isnan(z)) {
-              sum += z;
-              ++cnt;
-            }
-          }
-        }
-        if (cnt > 0) {
-          next[static_cast<size_t>(j) * n_ + i] = static_cast<float>(sum / cnt);
-          changed = true;
-        }
-      }
+  // Cells well above a robust plane through all cells are trunks, shrubs or stems seen without the
+  // ground below them (near the tripod the camera sees no ground): they and the empty cells take
+  // the plane's height.
+  FitPlaneAndDropRaisedCells();
+  for (size_t c = 0; c < z_.size(); ++c) {
+    if (std::isnan(z_[c])) {
+      const double x = origin_ + (static_cast<int>(c % n_) + 0.5) * cell_;
+      const double y = origin_ + (static_cast<int>(c / n_) + 0.5) * cell_;
+      z_[c] = static_cast<float>(plane_.x() * x + plane_.y() * y + plane_.z());
     }
-    z_.swap(next);
-    if (!changed) break;
   }
   if (measured_ == 0) n_ = 0;
+}
+
+void GroundGrid::FitPlaneAndDropRaisedCells() {
+  std::vector<Eigen::Vector3d> cells;
+  for (size_t c = 0; c < z_.size(); ++c) {
+    if (std::isnan(z_[c])) continue;
+    cells.emplace_back(origin_ + (static_cast<int>(c % n_) + 0.5) * cell_,
+                       origin_ + (static_cast<int>(c / n_) + 0.5) * cell_, z_[c]);
+  }
+  if (cells.size() < 10) return;
+  // z = a x + b y + c, reweighted so that cells above it count little: the ground is the floor.
+  std::vector<double> w(cells.size(), 1.0);
+  for (int it = 0; it < 8; ++it) {
+    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+    for (size_t k = 0; k < cells.size(); ++k) {
+      const Eigen::Vector3d a(cells[k].x(), cells[k].y(), 1.0);
+      ata += w[k] * a * a.transpose();
+      atb += w[k] * a * cells[k].z();
+    }
+    plane_ = ata.ldlt().solve(atb);
+    for (size_t k = 0; k < cells.size(); ++k) {
+      const double e = cells[k].z() - (plane_.x() * cells[k].x() + plane_.y() * cells[k].y() + plane_.z());
+      w[k] = e > 0.1 ? std::pow(0.1 / e, 2) : 1.0;
+    }
+  }
+  for (size_t c = 0; c < z_.size(); ++c) {
+    if (std::isnan(z_[c])) continue;
+    const double x = origin_ + (static_cast<int>(c % n_) + 0.5) * cell_;
+    const double y = origin_ + (static_cast<int>(c / n_) + 0.5) * cell_;
+    if (z_[c] - (plane_.x() * x + plane_.y() * y + plane_.z()) > kMaxAbovePlaneM) {
+      z_[c] = std::numeric_limits<float>::quiet_NaN();
+      --measured_;
+    }
+  }
 }
 
 double GroundGrid::Height(double x, double y) const {

@@ -19,6 +19,10 @@ class GroundGrid {
   int measured_cells() const { return measured_; }
 
  private:
+  // Bumps stay; a cell this far above the plane through the terrain is not ground.
+  static constexpr double kMaxAbovePlaneM = 0.35;
+  void FitPlaneAndDropRaisedCells();
+  Eigen::Vector3d plane_ = Eigen::Vector3d::Zero();  // z = a x + b y + c
   int n_ = 0, measured_ = 0;
   double cell_ = 0.5, origin_ = 0.0;
   std::vector<float> z_;

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <spdlog/spdlog.h>
 
 namespace stemmap::stems {
 
@@ -85,7 +86,7 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   const double plane_d = n_w.dot(Eigen::Vector3d(c0.x(), c0.y(), breast_z));
   (void)r0;
   const double half_w = 0.5 * (x_pred_right - x_pred_left);
-  const double margin = std::max(o.search_px, 0.4 * half_w);
+  const double margin = std::max(o.search_px, o.search_share * half_w);
   const int x_begin = static_cast<int>(std::floor(x_pred_left - margin));
   const int x_end = static_cast<int>(std::ceil(x_pred_right + margin));
   const int y_begin = static_cast<int>(std::lround(y0)) - o.rows_half;
@@ -193,7 +194,7 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
   for (int round = 0; round <= o.refits; ++round) {
     std::vector<Eigen::Vector2d> normals, origins;
     std::vector<double> headings;
-    int views = 0;
+    int views = 0, tried = 0;
     for (size_t k = 0; k < v.keyframes->size(); ++k) {
       if ((*v.gray)[k].empty()) continue;
       const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
@@ -242,6 +243,8 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
             headings.empty() ? h : headings[0] + std::remainder(h - headings[0], 2 * M_PI));
       }
     }
+    spdlog::debug("tangent: stem ({:.2f}, {:.2f}) r {:.3f} round {}: {} views tried, {} rays",
+                  c.x(), c.y(), r, round, tried, normals.size());
     if (static_cast<int>(normals.size()) < o.min_rays) return fit;
     Eigen::Vector2d c_new;
     double r_new, r_sd, rms;

@@ -19,6 +19,7 @@ struct TangentOptions {
   int neighbour_offset = 2;   // keyframes before and after used to align on the stem
   int rows_half = 4;          // rows averaged around breast height
   double search_px = 8.0;     // beyond the predicted edges, at least
+  double search_share = 0.8;  // and this share of the predicted half-width
   double min_contrast = 6.0;  // grey levels between stem and background disagreement
   double huber_m = 0.004;     // robust scale of the ray residuals
   int min_rays = 8;
