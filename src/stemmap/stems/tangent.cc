@@ -219,6 +219,7 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
         xs[s] = cam.ImageFromCam(tp_cam).x();
       }
       const double x_left = std::min(xs[0], xs[1]), x_right = std::max(xs[0], xs[1]);
+      ++tried;
       const Edges e =
           FindEdges(o, v, static_cast<int>(k), c, r, breast_z, x_left, x_right, p_img.y());
       bool used = false;
