@@ -3,8 +3,8 @@
 # scored by `stemmap evaluate` for trees with DBH >= 10 cm within 10 m, for each DBH estimator.
 # Usage: bench/plots.sh [BUILD_DIR] [DATA_DIR]
 #   SEEDS, KINDS, HEIGHT_SOURCE, SIM_ARGS as in bench/trajectory.sh.
-# The default estimator runs the whole pipeline (timed); the others reuse nothing and are scored
-# from stems_detail.csv of the same run, so all estimators see the same detections.
+# One run per plot (timed, its times on the first row); every estimator is scored from that run's
+# stems_detail.csv, so all see the same detections and positions.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 build=${1:-build}
@@ -62,7 +62,7 @@ for est in ("tangent", "slice", "circle"):
             f.write(f"{r['tree_id']},{t['x_m']},{t['y_m']},{t['z_m']},{d},0,{t['distance_m']},"
                     f"{t['azimuth_deg']},{t['n_views']},{t['flags']}\n")
 PY
-    for est in tangent slice circle; do
+    for est in slice tangent circle; do
       "$bin" --log-level warn evaluate --truth "$plot/truth.json" --pred "$out/trees_$est.csv" \
         --min-dbh 10 --plot-radius 10 --out "$out/eval_$est" > /dev/null
       python3 - "$kind-$seed" "$est" "$wall" "$rss" "$out" <<'PY'
@@ -72,10 +72,10 @@ e = json.load(open(f"{out}/eval_{est}/evaluation.json"))["raw"]
 s = json.load(open(f"{out}/summary.json"))["timing_s"]
 d = e["dbh"]
 timing = (f"{float(wall):.1f} / {s['track_s']:.1f} / {s['dense_s']:.1f} / "
-          f"{s['stems_s'] + s['tangent_rays_s']:.1f}") if est == "tangent" else ""
+          f"{s['stems_s'] + s['tangent_rays_s']:.1f}") if est == "slice" else ""
 print(f"| {name} | {est} | {e['recall']:.3f} | {e['precision']:.3f} | {d['mae_cm']:.2f} | "
       f"{d['rmse_cm']:.2f} | {d['bias_cm']:+.2f} | {d['mare_pct']:.2f} | "
-      f"{100 * e['position_rmse_m']:.1f} | {timing} | {rss if est == 'tangent' else ''} |")
+      f"{100 * e['position_rmse_m']:.1f} | {timing} | {rss if est == 'slice' else ''} |")
 PY
     done
   done

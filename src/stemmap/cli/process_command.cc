@@ -22,8 +22,8 @@ void AddProcessCommand(CLI::App& app) {
                   "Height of the DBH above the ground at the stem (m)")
       ->capture_default_str();
   sub->add_option("--dbh-method", opt->stems.dbh_method,
-                  "tangent (rays tangent to the silhouette in every view), slice (robust width "
-                  "of a 0.1 m slice across the view) or circle (fitted to that slice)")
+                  "slice (robust width of a 0.1 m slice across the view), tangent (rays tangent "
+                  "to the silhouette in every view) or circle (fitted to that slice)")
       ->check(CLI::IsMember({"tangent", "slice", "circle"}))
       ->capture_default_str();
   sub->callback([sub, opt, video, out] {

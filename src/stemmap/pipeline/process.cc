@@ -108,12 +108,13 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     ++fitted;
     s.dbh_tangent_m = 2 * f.radius_m;
     s.dbh_tangent_sd_m = 2 * f.radius_sd_m;
+    // The silhouettes place the stem better than the cloud's depth does, whichever DBH is kept.
+    s.centre_xy = f.centre;
+    s.n_views = f.views;
+    s.arc_deg = f.arc_deg;
     if (o.stems.dbh_method == "tangent") {
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
-      s.centre_xy = f.centre;
-      s.n_views = f.views;
-      s.arc_deg = f.arc_deg;
       if (f.views < 4) s.flags.push_back("few_views");
     }
   }

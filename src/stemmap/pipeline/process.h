@@ -42,8 +42,8 @@ struct ProcessResult {
 ProcessResult RunProcess(const ProcessOptions& options, const std::filesystem::path& video,
                          const std::filesystem::path& out_dir);
 
-// Runs the tangent-ray estimator on every stem; with the tangent method it also replaces the
-// stem's centre and DBH.
+// Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
+// method it also gives the DBH.
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
                            const std::vector<cv::Mat>& bgr, std::vector<stems::Stem>* stems);
 

@@ -60,7 +60,8 @@ void GroundGrid::FitPlaneAndDropRaisedCells() {
     }
     plane_ = ata.ldlt().solve(atb);
     for (size_t k = 0; k < cells.size(); ++k) {
-      const double e = cells[k].z() - (plane_.x() * cells[k].x() + plane_.y() * cells[k].y() + plane_.z());
+      const double e =
+          cells[k].z() - (plane_.x() * cells[k].x() + plane_.y() * cells[k].y() + plane_.z());
       w[k] = e > 0.1 ? std::pow(0.1 / e, 2) : 1.0;
     }
   }

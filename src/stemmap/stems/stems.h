@@ -24,9 +24,9 @@ struct StemOptions {
   double max_lean_deg = 15.0;
   double slice_half_m = 0.05;    // breast-height slice: ±5 cm (the paper's 0.1 m)
   double free_space_veto = 0.4;  // rays through the stem over rays ending on it: not a stem
-  // tangent (rays tangent to the silhouette), slice (the paper's robust width across the view) or
-  // circle (fitted to the slice)
-  std::string dbh_method = "tangent";
+  // slice (the paper's robust width across the view; the default, measured best so far), tangent
+  // (rays tangent to the silhouette) or circle (fitted to the slice). See docs/benchmarks.md.
+  std::string dbh_method = "slice";
   void Check() const;
 };
 

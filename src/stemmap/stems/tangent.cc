@@ -1,9 +1,10 @@
 #include "stemmap/stems/tangent.h"
 
+#include <spdlog/spdlog.h>
+
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <spdlog/spdlog.h>
 
 namespace stemmap::stems {
 
