@@ -239,7 +239,6 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     // Breast-height slice.
     std::vector<Eigen::Vector2d> slice;
     std::set<int> views;
-    std::vector<double> view_dirs;
     double half = o.slice_half_m;
     for (int widen = 0; widen < 3 && slice.size() < 15; ++widen, half *= 2) {
       slice.clear();

@@ -129,9 +129,9 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
                r.camera.height, r.camera.HfovDeg());
   FrontendResult f = RunFrontend(o.frontend, reader, r.camera);
   timing["decode_and_klt_s"] = clock.Lap();
-  const int n_tracked = static_cast<int>(f.keyframes.empty() ? 0 : f.frame_t_s.size());
   if (f.keyframes.size() < 3) {
-    throw InputError(fmt::format("the video is too short to track ({} frames)", n_tracked));
+    throw InputError(fmt::format("the video is too short to track ({} frames, {} keyframes)",
+                                 f.frame_t_s.size(), f.keyframes.size()));
   }
   if (f.dark_frames > o.max_dark_share * f.tracked_frames) {
     throw InputError(fmt::format("the video is too dark to track ({} of {} frames dark)",
