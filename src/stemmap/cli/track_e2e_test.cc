@@ -78,6 +78,24 @@ TEST(TrackEndToEnd, RecoversTheSimulatedTrajectory) {
   fs::remove_all(dir);
 }
 
+// Some phones record slowly and users subsample: 4 fps must track too.
+TEST(TrackEndToEnd, LowFrameRate) {
+  const fs::path dir = TestDir("lowfps");
+  sim::SimulateOptions so = ShortPlot(dir, 1.1);
+  so.fps = 4;
+  so.seconds = 24;
+  sim::RunSimulate(so);
+  const track::TrackResult r =
+      track::RunTrack(OptionsFromTruth(dir / "truth.json"), dir / "video.mp4", dir / "track");
+  EXPECT_TRUE(r.summary["loop_closed"].get<bool>());
+  const eval::TrajectoryStats s =
+      eval::CompareTrajectories(eval::ReadTruthJson(dir / "truth.json").poses, r.frames);
+  EXPECT_EQ(s.n_poses, 96);
+  EXPECT_LT(s.ate_rmse_m, 0.06);
+  EXPECT_LT(std::abs(s.scale_error_pct), 1.0);
+  fs::remove_all(dir);
+}
+
 TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   const fs::path dir = TestDir("process");
   sim::SimulateOptions so = ShortPlot(dir, 1.1);
