@@ -7,44 +7,15 @@
 # stems_detail.csv, so all see the same detections and positions.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-build=${1:-build}
-data=${2:-/tmp/stemmap-bench-plots}
-bin="$build/src/stemmap/cli/stemmap"
-seeds=${SEEDS:-1 2 3 4 5}
-kinds=${KINDS:-managed natural}
-height_source=${HEIGHT_SOURCE:-measured}
-mkdir -p "$data"
-
-seconds() {
-  grep "Elapsed (wall clock)" "$1" | awk '{print $NF}' |
-    awk -F: '{ if (NF==3) print $1*3600+$2*60+$3; else print $1*60+$2 }'
-}
+source "$here/common.sh"
 
 echo "| plot | estimator | recall | precision | DBH MAE (cm) | RMSE (cm) | bias (cm) | MARE (%) | position RMSE (cm) | wall (s): total / track / dense / stems+tangent | peak RSS (MiB) |"
 echo "|---|---|---|---|---|---|---|---|---|---|---|"
 for kind in $kinds; do
   for seed in $seeds; do
-    plot="$data/$kind-$seed"
-    if [ ! -f "$plot/video.mp4" ]; then
-      "$bin" --log-level warn simulate --seed "$seed" --kind "$kind" --out "$plot" --stills 0 \
-        ${SIM_ARGS:-} > /dev/null 2> "$plot.simulate.log" || { echo "simulate failed: $plot" >&2; continue; }
-    fi
-    python3 "$here/truth_calibration.py" "$plot/truth.json" "$plot/calibration.yaml"
-    extra=()
-    if [ "$height_source" = measured ]; then
-      extra+=(--camera-height "$(python3 -c "import json;print(json.load(open('$plot/truth.json'))['camera_height_m'])")")
-    fi
-    arm=$(python3 -c "import json;print(json.load(open('$plot/truth.json'))['arm_radius_m'])")
+    prepare_plot "$kind" "$seed" || continue
     out="$plot/process"
-    rm -rf "$out"
-    if ! /usr/bin/time -v "$bin" --log-level warn process "$plot/video.mp4" --arm-radius "$arm" \
-        --calibration "$plot/calibration.yaml" "${extra[@]}" --out "$out" \
-        > "$plot.process.log" 2> "$plot.process.time"; then
-      echo "| $kind-$seed | failed: $(grep -m1 'stemmap:' "$plot.process.time" || tail -1 "$plot.process.time") ||||||||||"
-      continue
-    fi
-    wall=$(seconds "$plot.process.time")
-    rss=$(grep "Maximum resident" "$plot.process.time" | awk '{print int($NF/1024)}')
+    run_stage process "$out" 10 || continue
     # One trees.csv per estimator, from the same detections.
     python3 - "$out" <<'PY'
 import csv, sys
