@@ -139,7 +139,7 @@ TEST(TrackEndToEnd, HalfATurnIsNotAPlot) {
   fs::remove_all(dir);
 }
 
-TEST(TrackEndToEnd, DarkAndCorruptVideosAreRejected) {
+TEST(TrackEndToEnd, DarkShortAndCorruptVideosAreRejected) {
   const fs::path dir = TestDir("bad");
   fs::create_directories(dir);
   VideoWriterOptions wo;
@@ -157,6 +157,17 @@ TEST(TrackEndToEnd, DarkAndCorruptVideosAreRejected) {
     FAIL() << "a black video was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("dark"), std::string::npos) << e.what();
+  }
+  {
+    VideoWriter w(dir / "short.mp4", wo);
+    for (int i = 0; i < 2; ++i) w.Write(cv::Mat(180, 320, CV_8UC3, cv::Scalar(90, 120, 60)));
+    w.Close();
+  }
+  try {
+    track::RunTrack(o, dir / "short.mp4", dir / "out");
+    FAIL() << "a two-frame video was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("too short"), std::string::npos) << e.what();
   }
   WriteFileAtomic(dir / "junk.mp4", std::string(5000, 'x'));
   EXPECT_THROW(track::RunTrack(o, dir / "junk.mp4", dir / "out"), InputError);
