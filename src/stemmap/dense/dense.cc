@@ -90,6 +90,7 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
     }
   }
   DenseResult r;
+  r.depth_focal_px = in.camera.fx * o.stereo.scale / o.stereo.pixel_step;
   Progress progress("depth", static_cast<int64_t>(pairs.size()));
   for (size_t i = 0; i < pairs.size(); ++i) {
     const auto [a, b] = pairs[i];

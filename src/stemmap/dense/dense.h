@@ -27,6 +27,7 @@ struct DenseInput {
 struct DenseResult {
   std::vector<CloudPoint> points;  // plot frame
   int pairs = 0;
+  double depth_focal_px = 0.0;  // focal length of the depth images at the points' spacing
   nlohmann::json summary;
 };
 

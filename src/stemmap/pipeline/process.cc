@@ -88,19 +88,31 @@ std::string ProcessResult::Table() const {
 
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
                            const std::vector<cv::Mat>& bgr, std::vector<stems::Stem>* stems) {
+  // Silhouettes at the video's own resolution where the front end kept it, else the working one.
   std::vector<cv::Mat> gray(bgr.size());
-  for (size_t k = 0; k < bgr.size(); ++k) {
-    if (!bgr[k].empty()) cv::cvtColor(bgr[k], gray[k], cv::COLOR_BGR2GRAY);
+  PinholeCamera camera = tr.camera;
+  const bool full = !tr.keyframe_gray_full.empty() && !tr.keyframe_gray_full[0].empty();
+  if (full) {
+    gray = tr.keyframe_gray_full;
+    camera = tr.camera.Scaled(static_cast<double>(gray[0].cols) / tr.camera.width);
+  } else {
+    for (size_t k = 0; k < bgr.size(); ++k) {
+      if (!bgr[k].empty()) cv::cvtColor(bgr[k], gray[k], cv::COLOR_BGR2GRAY);
+    }
   }
-  const stems::TangentViews views{&tr.camera, &tr.keyframes, &gray};
+  const stems::TangentViews views{&camera, &tr.keyframes, &gray};
+  const stems::TangentOptions topt =
+      o.tangent.ForImageScale(static_cast<double>(camera.width) / tr.camera.width);
   int fitted = 0;
   for (stems::Stem& s : *stems) {
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
     const double r0 = 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
-    const stems::TangentFit f = stems::FitTangentRays(o.tangent, views, s.centre_xy, r0, breast_z);
+    const stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
     // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
     // neighbour): keep the cloud's estimate and say so.
     const bool plausible = f.ok && std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
+    spdlog::debug("tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {}",
+                  s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views);
     if (!plausible) {
       if (o.stems.dbh_method == "tangent") s.flags.push_back("no_silhouette");
       continue;
@@ -141,7 +153,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   const dense::DenseResult dr = dense::RunDense(o.dense, din, out_dir);
   timing["dense_s"] = lap();
   const stems::GroundGrid ground(dr.points, o.stems.search_radius_m + 2.0, 0.5);
-  stems::StemsResult sr = stems::DetectStems(o.stems, dr.points, ground);
+  stems::StemsResult sr = stems::DetectStems(o.stems, dr.points, ground, dr.depth_focal_px);
   timing["stems_s"] = lap();
   RefineWithTangentRays(o, tr, din.images, &sr.stems);
   timing["tangent_rays_s"] = lap();

@@ -166,7 +166,7 @@ bool IsTooWide(const StemOptions& o, const std::vector<const dense::CloudPoint*>
 }  // namespace
 
 StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoint>& cloud,
-                        const GroundGrid& ground) {
+                        const GroundGrid& ground, double depth_focal_px) {
   o.Check();
   StemsResult result;
   // Points of the detection band, with their height above the ground.
@@ -250,6 +250,15 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
       }
     }
     if (slice.size() < 8) continue;
+    const double support_m2 =
+        depth_focal_px > 0 ? slice.size() * c0.squaredNorm() / (depth_focal_px * depth_focal_px)
+                           : o.min_slice_support_m2;
+    if (support_m2 < o.min_slice_support_m2) {
+      ++result.rejected_size;
+      spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: {} slice points", c0.x(), c0.y(),
+                    slice.size());
+      continue;
+    }
     Stem s;
     double r = r0, rms = rms0;
     Eigen::Vector2d c = c0;

@@ -19,6 +19,11 @@ struct StemOptions {
   int min_cell_points = 2;
   bool split_wide_parts = false;  // re-split parts too wide for one stem on denser cells
   int min_points = 25;
+  // Breast-height slice points times the area one depth pixel covers at the stem's distance
+  // (m², summed over the pairs that see it). Stereo points thin out with the square of the
+  // distance, so a fixed count would favour near clutter and drop far stems; less than this is
+  // too little surface for a stem (shrub twigs, noise).
+  double min_slice_support_m2 = 0.075;
   double min_diameter_m = 0.05;
   double max_diameter_m = 1.2;
   double max_lean_deg = 15.0;
@@ -51,8 +56,9 @@ struct StemsResult {
 
 // Stems from the fused cloud: occupancy of the band above the ground, connected parts, a
 // verticality test, a free-space veto from the points' rays, then DBH at breast height.
+// depth_focal_px (DenseResult's) scales the support test; 0 skips it.
 StemsResult DetectStems(const StemOptions& options, const std::vector<dense::CloudPoint>& cloud,
-                        const GroundGrid& ground);
+                        const GroundGrid& ground, double depth_focal_px = 0.0);
 
 // Circle through 2-D points: algebraic start, then robust geometric refinement. Returns false
 // with fewer than 3 points. `rms_m` is the residual spread.

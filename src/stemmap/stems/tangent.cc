@@ -80,12 +80,27 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   const cv::Mat& img = (*v.gray)[k];
   const Rigid3d& world_from_k = kfs[k].world_from_cam;
   const Eigen::Vector3d ck = world_from_k.translation;
-  // Plane through the stem's axis, facing camera k: the silhouette lies at the axis' depth (the
-  // front face is nearer, but the edges are what must line up). n . X = n . c0 (world).
+  // Pixels are carried to the neighbours through the stem's own surface (the circle (c0, r0) at
+  // every height), so bark lines up at any baseline; rays that miss it go through the plane of
+  // the axis facing k, where they do not line up with what lies behind.
   Eigen::Vector3d n_w(ck.x() - c0.x(), ck.y() - c0.y(), 0.0);
   n_w.normalize();
   const double plane_d = n_w.dot(Eigen::Vector3d(c0.x(), c0.y(), breast_z));
-  (void)r0;
+  auto depth_along = [&](const Eigen::Vector3d& ray) {
+    const Eigen::Vector2d q = ck.head<2>() - c0, u = ray.head<2>();
+    const double a = u.squaredNorm(), b = q.dot(u), cq = q.squaredNorm() - r0 * r0;
+    const double disc = b * b - a * cq;
+    if (a > 1e-12 && disc >= 0) {
+      const double t = (-b - std::sqrt(disc)) / a;
+      if (t > 0) return t;
+    }
+    const double denom = n_w.dot(ray);
+    return std::abs(denom) < 1e-9 ? -1.0 : (plane_d - n_w.dot(ck)) / denom;
+  };
+  // Neighbours far enough for what lies at 1.5 times the stem's distance to move by
+  // background_parallax_px against the stem.
+  const double dist = (ck.head<2>() - c0).norm();
+  const double baseline_m = 3.0 * o.background_parallax_px * dist / cam.fx;
   const double half_w = 0.5 * (x_pred_right - x_pred_left);
   const double margin = std::max(o.search_px, o.search_share * half_w);
   const int x_begin = static_cast<int>(std::floor(x_pred_left - margin));
@@ -97,17 +112,19 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   std::vector<double> diff(width, 0.0);
   std::vector<int> count(width, 0);
   for (int side : {-1, 1}) {
-    const int j = k + side * o.neighbour_offset;
+    int j = k + side;
+    while (j + side >= 0 && j + side < static_cast<int>(kfs.size()) &&
+           std::abs(j - k) < o.max_neighbour_offset &&
+           (kfs[j].world_from_cam.translation - ck).head<2>().norm() < baseline_m) {
+      j += side;
+    }
     if (j < 0 || j >= static_cast<int>(kfs.size()) || (*v.gray)[j].empty()) continue;
     const Rigid3d j_from_world = kfs[j].world_from_cam.Inverse();
     const cv::Mat& img_j = (*v.gray)[j];
     for (int y = y_begin; y <= y_end; ++y) {
       for (int x = x_begin; x <= x_end; ++x) {
-        // The pixel's ray meets the stem plane; that point seen from j.
         const Eigen::Vector3d ray = world_from_k.rotation * cam.CamRayFromImage({x, y});
-        const double denom = n_w.dot(ray);
-        if (std::abs(denom) < 1e-9) continue;
-        const double t = (plane_d - n_w.dot(ck)) / denom;
+        const double t = depth_along(ray);
         if (t <= 0) continue;
         const Eigen::Vector3d p_j = j_from_world * (ck + t * ray);
         if (p_j.z() <= 0.1) continue;
@@ -186,6 +203,38 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
 
 }  // namespace
 
+bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, double y0,
+                 int min_points, double* x_at_y0) {
+  const int n = static_cast<int>(x.size());
+  if (n < min_points) return false;
+  std::vector<double> slopes;
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      if (std::abs(y[j] - y[i]) > 0.5) slopes.push_back((x[j] - x[i]) / (y[j] - y[i]));
+    }
+  }
+  double b = slopes.empty() ? 0.0 : Median(slopes);
+  std::vector<double> offsets(n), dev(n);
+  for (int i = 0; i < n; ++i) offsets[i] = x[i] - b * (y[i] - y0);
+  double a = Median(offsets);
+  for (int i = 0; i < n; ++i) dev[i] = std::abs(offsets[i] - a);
+  const double tol = std::max(1.0, 3.0 * 1.4826 * Median(dev));
+  double sw = 0, sy = 0, sx = 0, syy = 0, sxy = 0;
+  for (int i = 0; i < n; ++i) {
+    if (std::abs(x[i] - (a + b * (y[i] - y0))) > tol) continue;
+    const double dy = y[i] - y0;
+    sw += 1, sy += dy, sx += x[i], syy += dy * dy, sxy += dy * x[i];
+  }
+  if (sw < min_points) return false;
+  const double den = sw * syy - sy * sy;
+  if (den > 1e-9) b = (sw * sxy - sy * sx) / den;
+  a = (sx - b * sy) / sw;
+  // A silhouette leans a few degrees at most.
+  if (std::abs(b) > 0.15) return false;
+  *x_at_y0 = a;
+  return true;
+}
+
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z) {
   TangentFit fit;
@@ -208,27 +257,36 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
       if (p_cam.z() < 0.5) continue;
       const Eigen::Vector2d p_img = cam.ImageFromCam(p_cam);
       if (p_img.x() < 0.08 * cam.width || p_img.x() > 0.92 * cam.width) continue;
-      // Predicted tangent points, left and right as seen from the camera.
       const double alpha = std::asin(std::min(1.0, r / d));
       const Eigen::Vector2d u = to_stem / d;
-      double xs[2];
-      for (int s = 0; s < 2; ++s) {
-        const double a = (s == 0 ? 1 : -1) * (M_PI / 2 - alpha);
-        const Eigen::Vector2d dir = Eigen::Rotation2Dd(a) * (-u);
-        const Eigen::Vector2d tp = c + r * dir;
-        const Eigen::Vector3d tp_cam = cam_from_world * Eigen::Vector3d(tp.x(), tp.y(), breast_z);
-        xs[s] = cam.ImageFromCam(tp_cam).x();
-      }
-      const double x_left = std::min(xs[0], xs[1]), x_right = std::max(xs[0], xs[1]);
+      // Bands of rows, apart by their own height, within band_half_height_m of breast height.
+      const double px_per_m = cam.fx / p_cam.z();
+      const double band_step_m = (2 * o.rows_half + 1) / px_per_m;
+      const int bands = std::max(0, static_cast<int>(o.band_half_height_m / band_step_m));
+      std::vector<double> edge_y[2], edge_x[2];
       ++tried;
-      const Edges e =
-          FindEdges(o, v, static_cast<int>(k), c, r, breast_z, x_left, x_right, p_img.y());
+      for (int j = -bands; j <= bands; ++j) {
+        const double z = breast_z + j * band_step_m;
+        // Predicted tangent points at this height, left and right as seen from the camera.
+        double xs[2];
+        for (int s = 0; s < 2; ++s) {
+          const double a = (s == 0 ? 1 : -1) * (M_PI / 2 - alpha);
+          const Eigen::Vector2d dir = Eigen::Rotation2Dd(a) * (-u);
+          const Eigen::Vector2d tp = c + r * dir;
+          xs[s] = cam.ImageFromCam(cam_from_world * Eigen::Vector3d(tp.x(), tp.y(), z)).x();
+        }
+        const double y = cam.ImageFromCam(cam_from_world * Eigen::Vector3d(c.x(), c.y(), z)).y();
+        const Edges e = FindEdges(o, v, static_cast<int>(k), c, r, z, std::min(xs[0], xs[1]),
+                                  std::max(xs[0], xs[1]), y);
+        if (e.left) edge_y[0].push_back(y), edge_x[0].push_back(e.x_left);
+        if (e.right) edge_y[1].push_back(y), edge_x[1].push_back(e.x_right);
+      }
+      const int min_points = std::max(1, (2 * bands + 1 + 1) / 2);
       bool used = false;
       for (int s = 0; s < 2; ++s) {
-        const bool found = s == 0 ? e.left : e.right;
-        if (!found) continue;
-        const double x = s == 0 ? e.x_left : e.x_right;
-        const Eigen::Vector3d ray = world_from_cam.rotation * cam.CamRayFromImage({x, e.y});
+        double x;
+        if (!FitEdgeLine(edge_y[s], edge_x[s], p_img.y(), min_points, &x)) continue;
+        const Eigen::Vector3d ray = world_from_cam.rotation * cam.CamRayFromImage({x, p_img.y()});
         Eigen::Vector2d dir = ray.head<2>();
         if (dir.norm() < 1e-9) continue;
         dir.normalize();
@@ -253,6 +311,8 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     if (!SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms, nullptr)) {
       return fit;
     }
+    spdlog::debug("tangent:   solved ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm", c_new.x(), c_new.y(),
+                  r_new, 1000 * rms);
     if ((c_new - centre0).norm() > 0.5 || r_new > 3 * radius0 + 0.1) return fit;
     c = c_new;
     r = r_new;

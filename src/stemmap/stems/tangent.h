@@ -1,6 +1,8 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
+#include <cmath>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -16,8 +18,13 @@ namespace stemmap::stems {
 // keyframe warped through the stem's own plane lines up on the stem and not on what lies behind,
 // so the stem is the run of columns where the two agree.
 struct TangentOptions {
-  int neighbour_offset = 2;   // keyframes before and after used to align on the stem
-  int rows_half = 4;          // rows averaged around breast height
+  // Neighbouring keyframes compared with each view: the nearest ones on either side from which
+  // what lies 1.5 times as far as the stem moves this much against it, at most this many away.
+  double background_parallax_px = 3.0;
+  int max_neighbour_offset = 8;
+  int rows_half = 4;  // rows averaged per band
+  // Bands of rows within this height of breast height; each silhouette is a line through them.
+  double band_half_height_m = 0.35;
   double search_px = 8.0;     // beyond the predicted edges, at least
   double search_share = 0.8;  // and this share of the predicted half-width
   double min_contrast = 6.0;  // grey levels between stem and background disagreement
@@ -25,6 +32,15 @@ struct TangentOptions {
   int min_rays = 8;
   int refits = 2;                    // edge search again around the refined circle
   bool refine_on_brightness = true;  // move each edge onto the nearby brightness step
+
+  // The pixel sizes above are for a 960-px wide working image; the same for images `s` times as
+  // large.
+  TangentOptions ForImageScale(double s) const {
+    TangentOptions t = *this;
+    t.rows_half = std::max(1, static_cast<int>(std::lround(rows_half * s)));
+    t.search_px = search_px * s;
+    return t;
+  }
 };
 
 struct TangentViews {
@@ -44,6 +60,14 @@ struct TangentFit {
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z);
+
+// Column at row y0 of a silhouette line through edge points (y, x) found in bands of rows: a
+// trunk's silhouette is straight over a few decimetres (taper and lean are smooth), so a robust
+// line (Theil-Sen start, then least squares on the points within 3 MADs) averages the bands'
+// noise and ignores a band that caught a neighbour or a furrow. False with fewer than min_points
+// on the line or a line leaning more than 0.15 px/px.
+bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, double y0,
+                 int min_points, double* x_at_y0);
 
 // Least squares circle tangent to horizontal lines n_i . (p - c_i) = r with Huber weights.
 // Returns false when the system is degenerate.

@@ -41,6 +41,26 @@ TEST(Tangent, CircleFromTangentRays) {
   EXPECT_LT(r_sd, 0.003);
 }
 
+// Edge points of a leaning silhouette with 0.3 px of noise and two bands on a neighbour's edge.
+TEST(Tangent, EdgeLineIgnoresStrayBands) {
+  Rng rng(5);
+  std::vector<double> y, x;
+  for (int i = 0; i < 15; ++i) {
+    y.push_back(400 + 9 * i);
+    x.push_back(700 + 0.05 * (y.back() - 463) + rng.Normal(0, 0.3));
+  }
+  x[2] += 25;
+  x[11] -= 14;
+  double x0 = 0;
+  ASSERT_TRUE(FitEdgeLine(y, x, 463, 8, &x0));
+  EXPECT_NEAR(x0, 700.0, 0.3);
+  // Too few points, or a line far from vertical, is no silhouette.
+  EXPECT_FALSE(FitEdgeLine(y, x, 463, 16, &x0));
+  std::vector<double> slanted(x.size());
+  for (size_t i = 0; i < x.size(); ++i) slanted[i] = 700 + 0.4 * (y[i] - 463);
+  EXPECT_FALSE(FitEdgeLine(y, slanted, 463, 8, &x0));
+}
+
 TEST(Tangent, DegenerateSystems) {
   Eigen::Vector2d c;
   double r, sd, rms;

@@ -115,7 +115,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
 
   Tracker tr(o, camera);
   std::vector<cv::Mat> prev_pyr, pyr;
-  cv::Mat gray, bgr;
+  cv::Mat gray, bgr, gray_full;
   int64_t tracked_frames = 0;
   double tracked_sum = 0.0;
   Progress progress("tracking", std::max<int64_t>(1, r.info.frame_count));
@@ -126,7 +126,10 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     kf.t_s = t_s;
     orb->detectAndCompute(gray, cv::noArray(), kf.orb_keypoints, kf.orb_descriptors);
     kf.vertical_segments = VerticalSegments(o, gray, lsd.get());
-    if (o.keep_keyframe_images) kf.bgr = bgr;
+    if (o.keep_keyframe_images) {
+      kf.bgr = bgr;
+      kf.gray_full = gray_full;
+    }
     r.keyframes.push_back(std::move(kf));
     tr.Seed(gray);
     tr.RecordKeyframe(static_cast<int>(r.keyframes.size()) - 1);
@@ -147,6 +150,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     last_tracked = fi;
     last_t = f->t_s;
     bgr = f->bgr;
+    gray_full = f->gray_full;
     if (prev_pyr.empty()) {
       add_keyframe(fi, f->t_s);
       std::swap(prev_pyr, pyr);

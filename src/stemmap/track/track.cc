@@ -122,6 +122,7 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   TrackResult r;
   VideoReaderOptions vro;
   vro.max_long_side_px = o.frontend.working_long_side_px;
+  vro.full_gray = o.frontend.keep_keyframe_images;
   VideoReader reader(video, vro);
   r.camera = WorkingCamera(o, reader.info());
   spdlog::info("track: {}x{} {:.2f} fps {}, working {}x{}, hfov {:.1f}°", reader.info().width,
@@ -211,6 +212,7 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
     const Rigid3d axis_from_cam{map.cam_from_world[k].conjugate(), map.centre_world[k]};
     r.keyframes.push_back({f.keyframes[k].t_s, r.plot_from_axis * axis_from_cam});
     r.keyframe_images.push_back(f.keyframes[k].bgr);
+    r.keyframe_gray_full.push_back(f.keyframes[k].gray_full);
   }
   for (const Eigen::Vector3d& p : pts_axis) r.points_plot.push_back(r.plot_from_axis * p);
   r.frames = InterpolateFrames(f.frame_t_s, r.keyframes);

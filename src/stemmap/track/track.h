@@ -43,6 +43,7 @@ struct TrackResult {
   std::vector<StampedPose> frames;       // every decoded frame, world_from_cam in the plot frame
   std::vector<StampedPose> keyframes;    // the adjusted keyframes, plot frame
   std::vector<cv::Mat> keyframe_images;  // BGR, working resolution, when the front end keeps them
+  std::vector<cv::Mat> keyframe_gray_full;  // luma at the video's resolution, likewise
   std::vector<Eigen::Vector3d> points_plot;
   Rigid3d plot_from_axis;
   nlohmann::json summary;  // tracking quality, loop, scale, timings

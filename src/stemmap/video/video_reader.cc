@@ -40,6 +40,24 @@ int DisplayRotationDeg(const AVStream* stream) {
   return (cw + 45) / 90 * 90 % 360;
 }
 
+// The image turned clockwise by `rotation_deg` (0, 90, 180 or 270).
+cv::Mat Upright(const cv::Mat& img, int rotation_deg) {
+  cv::Mat out;
+  switch (rotation_deg) {
+    case 90:
+      cv::rotate(img, out, cv::ROTATE_90_CLOCKWISE);
+      return out;
+    case 180:
+      cv::rotate(img, out, cv::ROTATE_180);
+      return out;
+    case 270:
+      cv::rotate(img, out, cv::ROTATE_90_COUNTERCLOCKWISE);
+      return out;
+    default:
+      return img;
+  }
+}
+
 }  // namespace
 
 struct VideoReader::Impl {
@@ -51,16 +69,19 @@ struct VideoReader::Impl {
   AVFrame* frame = nullptr;
   AVPacket* packet = nullptr;
   SwsContext* sws = nullptr;
+  SwsContext* sws_gray = nullptr;
   int stream_index = -1;
   int64_t decoded = 0;
   int corrupt = 0;
   bool flushing = false;
   bool done = false;
   double first_t_s = NAN;
-  int out_w = 0, out_h = 0;  // decoded-orientation output size before rotation
+  int out_w = 0, out_h = 0;    // decoded-orientation output size before rotation
+  int full_w = 0, full_h = 0;  // decoded-orientation stored size before rotation
 
   ~Impl() {
     sws_freeContext(sws);
+    sws_freeContext(sws_gray);
     av_packet_free(&packet);
     av_frame_free(&frame);
     avcodec_free_context(&dec);
@@ -119,9 +140,13 @@ VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options
   }
   m.out_w = std::max(2, static_cast<int>(std::lround(m.dec->width * scale)));
   m.out_h = std::max(2, static_cast<int>(std::lround(m.dec->height * scale)));
+  m.full_w = m.dec->width;
+  m.full_h = m.dec->height;
   const bool swap = m.info.rotation_deg == 90 || m.info.rotation_deg == 270;
   m.info.width = swap ? m.out_h : m.out_w;
   m.info.height = swap ? m.out_w : m.out_h;
+  m.info.full_width = swap ? m.full_h : m.full_w;
+  m.info.full_height = swap ? m.full_w : m.full_h;
   m.frame = av_frame_alloc();
   m.packet = av_packet_alloc();
 }
@@ -152,23 +177,23 @@ std::optional<DecodedFrame> VideoReader::Next() {
                        : pts * av_q2d(stream->time_base);
       if (std::isnan(m.first_t_s)) m.first_t_s = t_s;
       t_s -= m.first_t_s;
-      av_frame_unref(m.frame);
       DecodedFrame out;
+      if (m.options.full_gray) {
+        m.sws_gray =
+            sws_getCachedContext(m.sws_gray, m.frame->width, m.frame->height,
+                                 static_cast<AVPixelFormat>(m.frame->format), m.full_w, m.full_h,
+                                 AV_PIX_FMT_GRAY8, SWS_AREA, nullptr, nullptr, nullptr);
+        if (!m.sws_gray) throw ProcessingError("cannot convert decoded frames to grey");
+        cv::Mat gray(m.full_h, m.full_w, CV_8U);
+        uint8_t* gdst[1] = {gray.data};
+        const int gstride[1] = {static_cast<int>(gray.step[0])};
+        sws_scale(m.sws_gray, m.frame->data, m.frame->linesize, 0, m.frame->height, gdst, gstride);
+        out.gray_full = Upright(gray, m.info.rotation_deg);
+      }
+      av_frame_unref(m.frame);
       out.index = m.decoded++;
       out.t_s = t_s;
-      switch (m.info.rotation_deg) {
-        case 90:
-          cv::rotate(bgr, out.bgr, cv::ROTATE_90_CLOCKWISE);
-          break;
-        case 180:
-          cv::rotate(bgr, out.bgr, cv::ROTATE_180);
-          break;
-        case 270:
-          cv::rotate(bgr, out.bgr, cv::ROTATE_90_COUNTERCLOCKWISE);
-          break;
-        default:
-          out.bgr = bgr;
-      }
+      out.bgr = Upright(bgr, m.info.rotation_deg);
       return out;
     }
     if (ret == AVERROR_EOF) {

@@ -9,8 +9,10 @@ namespace stemmap {
 
 // What the container says about a video, before any frame is decoded.
 struct VideoInfo {
-  int width = 0;  // after the display rotation is applied
+  int width = 0;  // of the frames returned: scaled, after the display rotation is applied
   int height = 0;
+  int full_width = 0;  // as stored, after the display rotation is applied
+  int full_height = 0;
   double fps = 0.0;  // average frame rate
   double duration_s = 0.0;
   int64_t frame_count = 0;  // container's estimate; may be 0 when unknown
@@ -22,11 +24,14 @@ struct DecodedFrame {
   int64_t index = 0;  // 0-based order of decoding
   double t_s = 0.0;   // presentation time from the stream, relative to the first frame
   cv::Mat bgr;        // CV_8UC3, rotated upright, scaled to the requested size
+  cv::Mat gray_full;  // CV_8U, rotated upright, full resolution (VideoReaderOptions::full_gray)
 };
 
 struct VideoReaderOptions {
   // Resize so the longer side is at most this many pixels (0 = keep the full resolution).
   int max_long_side_px = 0;
+  // Also return each frame's luma at full resolution, for measurements finer than tracking.
+  bool full_gray = false;
   int threads = 2;
 };
 

@@ -41,9 +41,12 @@ TEST(Video, WriteThenReadRoundTrip) {
 
   VideoReaderOptions ro;
   ro.max_long_side_px = 80;
+  ro.full_gray = true;
   VideoReader reader(path, ro);
   EXPECT_EQ(reader.info().width, 80);
   EXPECT_EQ(reader.info().height, 48);
+  EXPECT_EQ(reader.info().full_width, 160);
+  EXPECT_EQ(reader.info().full_height, 96);
   EXPECT_NEAR(reader.info().fps, 10.0, 1e-6);
   int n = 0;
   double last_t = -1;
@@ -55,6 +58,10 @@ TEST(Video, WriteThenReadRoundTrip) {
       // The bright bar sits where it was drawn (x = 30..60 at full size → 15..30 at half size).
       EXPECT_GT(f->bgr.at<cv::Vec3b>(24, 22)[0], 150);
       EXPECT_LT(f->bgr.at<cv::Vec3b>(24, 60)[0], 80);
+      // The luma keeps the stored size: the bar at x = 30..60.
+      ASSERT_EQ(f->gray_full.size(), cv::Size(160, 96));
+      EXPECT_GT(f->gray_full.at<uchar>(48, 45), 150);
+      EXPECT_LT(f->gray_full.at<uchar>(48, 120), 100);
     }
     ++n;
   }
