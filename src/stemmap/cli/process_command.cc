@@ -22,8 +22,9 @@ void AddProcessCommand(CLI::App& app) {
                   "Height of the DBH above the ground at the stem (m)")
       ->capture_default_str();
   sub->add_option("--dbh-method", opt->stems.dbh_method,
-                  "slice (robust width of a 0.1 m slice across the view), tangent (rays tangent "
-                  "to the silhouette in every view) or circle (fitted to that slice)")
+                  "tangent (rays tangent to the silhouettes in every view; the slice width where "
+                  "none fit), slice (robust width of a 0.1 m slice across the view) or circle "
+                  "(fitted to that slice)")
       ->check(CLI::IsMember({"tangent", "slice", "circle"}))
       ->capture_default_str();
   sub->callback([sub, opt, video, out] {

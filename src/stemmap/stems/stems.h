@@ -29,9 +29,10 @@ struct StemOptions {
   double max_lean_deg = 15.0;
   double slice_half_m = 0.05;    // breast-height slice: ±5 cm (the paper's 0.1 m)
   double free_space_veto = 0.4;  // rays through the stem over rays ending on it: not a stem
-  // slice (the paper's robust width across the view; the default, measured best so far), tangent
-  // (rays tangent to the silhouette) or circle (fitted to the slice). See docs/benchmarks.md.
-  std::string dbh_method = "slice";
+  // tangent (rays tangent to the silhouettes, the slice width where no silhouette fits; the
+  // default, measured best), slice (the paper's robust width across the view) or circle (fitted
+  // to the slice). See docs/benchmarks.md.
+  std::string dbh_method = "tangent";
   void Check() const;
 };
 

@@ -11,15 +11,23 @@ namespace stemmap::stems {
 bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
                         const std::vector<Eigen::Vector2d>& origins, double huber_m,
                         Eigen::Vector2d* centre, double* radius, double* radius_sd, double* rms_m,
-                        std::vector<double>* weights) {
+                        std::vector<double>* weights, const CentrePrior* prior) {
   const size_t n = normals.size();
   if (n < 3) return false;
+  // Prior rows (p - c_prior) / sigma, in the rays' units: weight (ray_sigma / sigma)^2.
+  Eigen::Matrix3d prior_ata = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d prior_atb = Eigen::Vector3d::Zero();
+  if (prior) {
+    const double w = std::pow(prior->ray_sigma_m / prior->sigma_m, 2);
+    prior_ata.topLeftCorner<2, 2>() = w * Eigen::Matrix2d::Identity();
+    prior_atb.head<2>() = w * prior->centre;
+  }
   std::vector<double> w(n, 1.0);
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
   Eigen::Matrix3d ata;
   for (int it = 0; it < 10; ++it) {
-    ata.setZero();
-    Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+    ata = prior_ata;
+    Eigen::Vector3d atb = prior_atb;
     for (size_t i = 0; i < n; ++i) {
       const Eigen::Vector3d a(normals[i].x(), normals[i].y(), -1.0);
       ata += w[i] * a * a.transpose();
@@ -308,7 +316,9 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     if (static_cast<int>(normals.size()) < o.min_rays) return fit;
     Eigen::Vector2d c_new;
     double r_new, r_sd, rms;
-    if (!SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms, nullptr)) {
+    const CentrePrior prior{centre0, o.prior_share_of_distance * centre0.norm() + 0.05, o.huber_m};
+    if (!SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms, nullptr,
+                            &prior)) {
       return fit;
     }
     spdlog::debug("tangent:   solved ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm", c_new.x(), c_new.y(),

@@ -14,9 +14,11 @@ namespace stemmap::stems {
 // DBH from tangent rays: in every keyframe that sees the stem, its left and right silhouette
 // edges at breast height are rays tangent to the stem's cross-section, so each gives one linear
 // equation n . (p - c) = r in the centre p and radius r (n: the ray's horizontal normal toward
-// the stem, c: the camera centre). The edges come from depth, not brightness: a neighbouring
-// keyframe warped through the stem's own plane lines up on the stem and not on what lies behind,
-// so the stem is the run of columns where the two agree.
+// the stem, c: the camera centre). The edges come from depth, not brightness: neighbouring
+// keyframes warped through the stem's own surface line up on the stem and not on what lies
+// behind, so the stem is the run of columns where they agree. Edges are found in bands of rows
+// around breast height and joined by a robust line per side; images at the video's full
+// resolution give the finest edges.
 struct TangentOptions {
   // Neighbouring keyframes compared with each view: the nearest ones on either side from which
   // what lies 1.5 times as far as the stem moves this much against it, at most this many away.
@@ -29,6 +31,8 @@ struct TangentOptions {
   double search_share = 0.8;  // and this share of the predicted half-width
   double min_contrast = 6.0;  // grey levels between stem and background disagreement
   double huber_m = 0.004;     // robust scale of the ray residuals
+  // The starting centre (from the cloud) as a prior of this share of the stem's distance.
+  double prior_share_of_distance = 0.05;
   int min_rays = 8;
   int refits = 2;                    // edge search again around the refined circle
   bool refine_on_brightness = true;  // move each edge onto the nearby brightness step
@@ -69,11 +73,19 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
 bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, double y0,
                  int min_points, double* x_at_y0);
 
+// A soft prior on the centre (e.g. the cloud's), for views that barely fix the stem's depth:
+// rays from a short arc of the arm leave the circle free to slide along the line of sight.
+struct CentrePrior {
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+  double sigma_m = 1.0;        // of the prior, in each direction
+  double ray_sigma_m = 0.005;  // expected ray residual, which sets the prior's relative weight
+};
+
 // Least squares circle tangent to horizontal lines n_i . (p - c_i) = r with Huber weights.
 // Returns false when the system is degenerate.
 bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
                         const std::vector<Eigen::Vector2d>& origins, double huber_m,
                         Eigen::Vector2d* centre, double* radius, double* radius_sd, double* rms_m,
-                        std::vector<double>* weights);
+                        std::vector<double>* weights, const CentrePrior* prior = nullptr);
 
 }  // namespace stemmap::stems

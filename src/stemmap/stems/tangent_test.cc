@@ -61,6 +61,36 @@ TEST(Tangent, EdgeLineIgnoresStrayBands) {
   EXPECT_FALSE(FitEdgeLine(y, slanted, 463, 8, &x0));
 }
 
+// Rays from a 2-cm stretch of the arm barely fix the depth: the prior on the centre holds it,
+// while the rays still set the bearing and the radius.
+TEST(Tangent, CentrePriorHoldsTheDepth) {
+  const Eigen::Vector2d centre(10.0, 0.0);
+  const double radius = 0.18;
+  Rng rng(7);
+  std::vector<Eigen::Vector2d> normals, origins;
+  for (int k = 0; k < 12; ++k) {
+    const double phi = -0.01 + 0.02 * k / 11.0;
+    const Eigen::Vector2d c(std::cos(phi), std::sin(phi));
+    const Eigen::Vector2d to = centre - c;
+    const double d = to.norm(), alpha = std::asin(radius / d);
+    for (int side : {-1, 1}) {
+      const Eigen::Vector2d dir = Eigen::Rotation2Dd(side * alpha + rng.Normal(0, 3e-4)) * (to / d);
+      Eigen::Vector2d n(-dir.y(), dir.x());
+      if (n.dot(centre - c) < 0) n = -n;
+      normals.push_back(n);
+      origins.push_back(c);
+    }
+  }
+  const CentrePrior prior{Eigen::Vector2d(10.3, 0.02), 0.5, 0.004};
+  Eigen::Vector2d fitted;
+  double r = 0, r_sd = 0, rms = 0;
+  ASSERT_TRUE(
+      SolveTangentCircle(normals, origins, 0.004, &fitted, &r, &r_sd, &rms, nullptr, &prior));
+  EXPECT_NEAR(fitted.y(), 0.0, 0.01);                // bearing from the rays
+  EXPECT_NEAR(fitted.x(), 10.0, 0.35);               // depth between the rays' and the prior's
+  EXPECT_NEAR(r / fitted.x(), radius / 10.0, 2e-4);  // angular size from the rays
+}
+
 TEST(Tangent, DegenerateSystems) {
   Eigen::Vector2d c;
   double r, sd, rms;
