@@ -185,10 +185,49 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
     const double off = den < 0 ? 0.5 * (gm - gp) / den : 0.0;
     return x_begin + best + std::clamp(off, -0.5, 0.5);
   };
+  // Where what lies behind disagrees too little (plain sky, a smooth far background), the
+  // silhouette is the strongest brightness step of the stem-to-background sign near the
+  // predicted edge.
+  const int rows = 2 * o.rows_half + 1;
+  std::vector<double> row_inside;
+  for (int i = 0; i < width; ++i) {
+    if (std::abs(i - xm) < 0.25 * (xr - xl)) row_inside.push_back(row[i]);
+  }
+  const double stem_luma = Median(row_inside) / rows;
+  auto brightness_edge = [&](int dir, double x_pred, double* x_edge) {
+    std::vector<double> beyond;
+    for (int i = 0; i < width; ++i) {
+      if (dir * (i - x_pred) > 3) beyond.push_back(row[i]);
+    }
+    if (beyond.size() < 3) return false;
+    const double bg_luma = Median(beyond) / rows;
+    if (std::abs(bg_luma - stem_luma) < o.min_brightness_contrast) return false;
+    const double sign = bg_luma > stem_luma ? dir : -dir;
+    const double window = std::max(3.0, 0.2 * (xr - xl));
+    int best = -1;
+    double best_g = 0;
+    for (int i = 1; i < width - 1; ++i) {
+      if (std::abs(i - x_pred) > window) continue;
+      const double g = sign * (row[i + 1] - row[i - 1]);
+      if (g > best_g) best_g = g, best = i;
+    }
+    if (best < 2 || best > width - 3 || best_g < 0.5 * o.min_brightness_contrast * rows) {
+      return false;
+    }
+    const double gm = sign * (row[best] - row[best - 2]), gp = sign * (row[best + 2] - row[best]);
+    const double den = gm - 2 * best_g + gp;
+    const double off = den < 0 ? 0.5 * (gm - gp) / den : 0.0;
+    *x_edge = x_begin + best + std::clamp(off, -0.5, 0.5);
+    return true;
+  };
+  bool by_brightness[2] = {false, false};
   auto scan = [&](int dir, const std::vector<double>& outside, double* x_edge) {
     if (outside.size() < 3) return false;
     const double bg = Median(outside);
-    if (bg - stem < o.min_contrast) return false;
+    if (bg - stem < o.min_contrast) {
+      by_brightness[dir > 0] = true;
+      return brightness_edge(dir, dir < 0 ? xl : xr, x_edge);
+    }
     const double tau = 0.5 * (stem + bg);
     int i = static_cast<int>(std::lround(xm));
     while (i + dir >= 0 && i + dir < width && smooth[i + dir] <= tau) i += dir;
@@ -202,8 +241,8 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   edges.left = scan(-1, out_left, &edges.x_left);
   edges.right = scan(1, out_right, &edges.x_right);
   if (o.refine_on_brightness) {
-    if (edges.left) edges.x_left = refine(edges.x_left);
-    if (edges.right) edges.x_right = refine(edges.x_right);
+    if (edges.left && !by_brightness[0]) edges.x_left = refine(edges.x_left);
+    if (edges.right && !by_brightness[1]) edges.x_right = refine(edges.x_right);
   }
   edges.y = y0;
   return edges;

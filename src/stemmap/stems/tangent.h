@@ -30,7 +30,9 @@ struct TangentOptions {
   double search_px = 8.0;     // beyond the predicted edges, at least
   double search_share = 0.8;  // and this share of the predicted half-width
   double min_contrast = 6.0;  // grey levels between stem and background disagreement
-  double huber_m = 0.004;     // robust scale of the ray residuals
+  // Below that, the brightness step between stem and background, if at least this (grey levels).
+  double min_brightness_contrast = 12.0;
+  double huber_m = 0.004;  // robust scale of the ray residuals
   // The starting centre (from the cloud) as a prior of this share of the stem's distance.
   double prior_share_of_distance = 0.05;
   int min_rays = 8;

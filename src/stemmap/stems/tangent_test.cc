@@ -4,6 +4,8 @@
 
 #include <Eigen/Geometry>
 
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
 #include "stemmap/core/rng.h"
 
 namespace stemmap::stems {
@@ -89,6 +91,64 @@ TEST(Tangent, CentrePriorHoldsTheDepth) {
   EXPECT_NEAR(fitted.y(), 0.0, 0.01);                // bearing from the rays
   EXPECT_NEAR(fitted.x(), 10.0, 0.35);               // depth between the rays' and the prior's
   EXPECT_NEAR(r / fitted.x(), radius / 10.0, 2e-4);  // angular size from the rays
+}
+
+// Keyframes on the arm's circle looking outward at a furrowed stem, rendered by ray casting, in
+// front of either a plain sky or a textured far background. The fit starts from a centre 0.3 m
+// too far and a radius 2 cm small, as the cloud gives them.
+struct RenderedStem {
+  PinholeCamera camera = PinholeCamera::FromHfov(640, 360, 67.0);
+  std::vector<StampedPose> keyframes;
+  std::vector<cv::Mat> gray;
+};
+
+RenderedStem RenderStem(const Eigen::Vector2d& centre, double radius, bool textured_background) {
+  RenderedStem r;
+  for (int k = 0; k < 34; ++k) {
+    const double th = (-30.0 + 2.0 * k) * M_PI / 180.0;
+    Eigen::Matrix3d rot;  // columns: camera x (right), y (down), z (forward) in the plot frame
+    rot << std::sin(th), 0, std::cos(th), -std::cos(th), 0, std::sin(th), 0, -1, 0;
+    Rigid3d world_from_cam{Eigen::Quaterniond(rot),
+                           Eigen::Vector3d(std::cos(th), std::sin(th), 1.3)};
+    cv::Mat img(r.camera.height, r.camera.width, CV_8U);
+    for (int y = 0; y < img.rows; ++y) {
+      for (int x = 0; x < img.cols; ++x) {
+        const Eigen::Vector3d ray = world_from_cam.rotation * r.camera.CamRayFromImage({x, y});
+        const Eigen::Vector2d q = world_from_cam.translation.head<2>() - centre, u = ray.head<2>();
+        const double a = u.squaredNorm(), b = q.dot(u), c = q.squaredNorm() - radius * radius;
+        double luma = 210;  // sky
+        if (b * b - a * c >= 0 && -b - std::sqrt(b * b - a * c) > 0) {
+          const Eigen::Vector2d hit = q + (-b - std::sqrt(b * b - a * c)) / a * u;
+          luma = 80 + 25 * std::sin(40 * std::atan2(hit.y(), hit.x()));  // bark furrows
+        } else if (textured_background) {
+          const double az = std::atan2(u.y(), u.x());
+          luma = 150 + 50 * std::sin(400 * az) * std::cos(30 * ray.z() / u.norm());
+        }
+        img.at<uchar>(y, x) = cv::saturate_cast<uchar>(luma);
+      }
+    }
+    r.keyframes.push_back({0.1 * k, world_from_cam});
+    r.gray.push_back(img);
+  }
+  return r;
+}
+
+TEST(Tangent, FitsARenderedStem) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.15;
+  for (bool textured : {false, true}) {
+    SCOPED_TRACE(textured ? "textured background" : "plain sky");
+    const RenderedStem scene = RenderStem(centre, radius, textured);
+    const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+    const Eigen::Vector2d start = centre * (1.0 + 0.3 / centre.norm());
+    const TangentFit fit =
+        FitTangentRays(TangentOptions().ForImageScale(640.0 / 960.0), views, start, 0.13, 1.37);
+    ASSERT_TRUE(fit.ok);
+    // One pixel is 12 mm at the stem here (640-px images, aliased edges): a third of a pixel.
+    EXPECT_NEAR(fit.radius_m, radius, 0.005);
+    EXPECT_LT((fit.centre - centre).norm(), 0.06);
+    EXPECT_GT(fit.views, 10);
+  }
 }
 
 TEST(Tangent, DegenerateSystems) {
