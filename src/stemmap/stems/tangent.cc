@@ -363,6 +363,8 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     spdlog::debug("tangent:   solved ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm", c_new.x(), c_new.y(),
                   r_new, 1000 * rms);
     if ((c_new - centre0).norm() > 0.5 || r_new > 3 * radius0 + 0.1) return fit;
+    // A refit that jumps away from an accepted one lost the silhouettes it had: keep that one.
+    if (fit.ok && std::abs(r_new - fit.radius_m) > 0.25 * fit.radius_m) return fit;
     c = c_new;
     r = r_new;
     fit.ok = true;
