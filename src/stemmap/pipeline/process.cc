@@ -100,21 +100,33 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       if (!bgr[k].empty()) cv::cvtColor(bgr[k], gray[k], cv::COLOR_BGR2GRAY);
     }
   }
-  const stems::TangentViews views{&camera, &tr.keyframes, &gray};
+  std::vector<Eigen::Vector3d> occluders;
+  for (const stems::Stem& s : *stems) {
+    occluders.emplace_back(s.centre_xy.x(), s.centre_xy.y(), 0.5 * s.dbh_m);
+  }
+  const stems::TangentViews views{&camera, &tr.keyframes, &gray, &occluders};
   const stems::TangentOptions topt =
       o.tangent.ForImageScale(static_cast<double>(camera.width) / tr.camera.width);
-  int fitted = 0;
+  int fitted = 0, dropped = 0;
+  std::vector<stems::Stem> kept;
   for (stems::Stem& s : *stems) {
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
     const double r0 = 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
     const stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
     // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
     // neighbour): keep the cloud's estimate and say so.
-    const bool plausible = f.ok && std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
+    const bool plausible =
+        f.ok && (s.depth_smeared || std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01);
     spdlog::debug("tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {}",
                   s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views);
     if (!plausible) {
+      // A smeared part is a stem only if silhouettes confirm it.
+      if (s.depth_smeared) {
+        ++dropped;
+        continue;
+      }
       if (o.stems.dbh_method == "tangent") s.flags.push_back("no_silhouette");
+      kept.push_back(s);
       continue;
     }
     ++fitted;
@@ -129,8 +141,13 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       s.dbh_sd_m = s.dbh_tangent_sd_m;
       if (f.views < 4) s.flags.push_back("few_views");
     }
+    kept.push_back(s);
   }
-  spdlog::info("stems: tangent rays fitted {} of {} stems", fitted, stems->size());
+  spdlog::info(
+      "stems: tangent rays fitted {} of {} stems; {} smeared parts without silhouettes "
+      "dropped",
+      fitted, stems->size(), dropped);
+  *stems = std::move(kept);
 }
 
 ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& video,

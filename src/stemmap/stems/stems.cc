@@ -163,6 +163,80 @@ bool IsTooWide(const StemOptions& o, const std::vector<const dense::CloudPoint*>
   return !FitCircle(xy, &c, &r, &rms) || 2 * r > o.max_diameter_m;
 }
 
+// Centre and radius of a stem from its points' width across the line of sight from the plot
+// centre (5th to 95th percentile) and their median range (the front face); `along_m` is their
+// spread along it (5th to 95th percentile).
+void AcrossWidthCircle(const std::vector<Eigen::Vector2d>& xy, Eigen::Vector2d* centre,
+                       double* radius, double* along_m = nullptr) {
+  std::vector<double> ranges, bearings;
+  for (const Eigen::Vector2d& p : xy) {
+    ranges.push_back(p.norm());
+    bearings.push_back(std::atan2(p.y(), p.x()));
+  }
+  const double bearing0 = bearings[0];
+  for (double& b : bearings) b = bearing0 + std::remainder(b - bearing0, 2 * M_PI);
+  auto percentile = [](std::vector<double> v, double q) {
+    const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+    std::nth_element(v.begin(), v.begin() + k, v.end());
+    return v[k];
+  };
+  const double range = percentile(ranges, 0.5);
+  if (along_m) *along_m = percentile(ranges, 0.95) - percentile(ranges, 0.05);
+  const double lo = percentile(bearings, 0.05), hi = percentile(bearings, 0.95);
+  *radius = 0.5 * range * (hi - lo);
+  const double mid = 0.5 * (lo + hi);
+  *centre = (range + *radius) * Eigen::Vector2d(std::cos(mid), std::sin(mid));
+}
+
+// Stereo smears a far stem along the line of sight (depth is coarse, bearing fine), so a part too
+// wide for one stem is split where its bearings from the centre leave a gap, then each bearing
+// run where its ranges leave one (a stem behind another).
+std::vector<std::vector<int>> SplitByBearing(const StemOptions& o,
+                                             const std::vector<const dense::CloudPoint*>& band,
+                                             const std::vector<int>& part) {
+  std::vector<std::pair<double, int>> by_bearing;
+  for (int i : part) {
+    by_bearing.emplace_back(std::atan2(band[i]->world.y(), band[i]->world.x()), i);
+  }
+  std::sort(by_bearing.begin(), by_bearing.end());
+  // Bearings wrap at ±180°: start after the widest gap.
+  size_t start = 0;
+  double widest = 0;
+  for (size_t k = 0; k < by_bearing.size(); ++k) {
+    const size_t prev = (k + by_bearing.size() - 1) % by_bearing.size();
+    double gap = by_bearing[k].first - by_bearing[prev].first;
+    if (gap < 0) gap += 2 * M_PI;
+    if (gap > widest) widest = gap, start = k;
+  }
+  std::vector<std::vector<int>> runs(1);
+  for (size_t n = 0; n < by_bearing.size(); ++n) {
+    const size_t k = (start + n) % by_bearing.size();
+    const double range =
+        std::hypot(band[by_bearing[k].second]->world.x(), band[by_bearing[k].second]->world.y());
+    if (n > 0) {
+      const size_t prev = (k + by_bearing.size() - 1) % by_bearing.size();
+      double gap = by_bearing[k].first - by_bearing[prev].first;
+      if (gap < 0) gap += 2 * M_PI;
+      if (gap * range > o.split_gap_m) runs.emplace_back();
+    }
+    runs.back().push_back(by_bearing[k].second);
+  }
+  std::vector<std::vector<int>> out;
+  for (std::vector<int>& run : runs) {
+    std::vector<std::pair<double, int>> by_range;
+    for (int i : run) by_range.emplace_back(band[i]->world.head<2>().norm(), i);
+    std::sort(by_range.begin(), by_range.end());
+    out.emplace_back();
+    for (size_t k = 0; k < by_range.size(); ++k) {
+      if (k > 0 && by_range[k].first - by_range[k - 1].first > o.split_range_gap_m) {
+        out.emplace_back();
+      }
+      out.back().push_back(by_range[k].second);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoint>& cloud,
@@ -193,6 +267,10 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
       if (static_cast<int>(part.size()) < o.min_points) continue;
       if (o.split_wide_parts && min_count < 8 * o.min_cell_points && IsTooWide(o, band, part)) {
         queue.emplace_back(std::move(part), 2 * min_count);
+      } else if (o.split_by_bearing && IsTooWide(o, band, part)) {
+        for (std::vector<int>& sub : SplitByBearing(o, band, part)) {
+          if (static_cast<int>(sub.size()) >= o.min_points) parts.push_back(std::move(sub));
+        }
       } else {
         parts.push_back(std::move(part));
       }
@@ -204,11 +282,21 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     for (int i : m) all_xy.push_back(band[i]->world.head<2>().cast<double>());
     Eigen::Vector2d c0;
     double r0 = 0, rms0 = 0;
-    if (!FitCircle(all_xy, &c0, &r0, &rms0) || 2 * r0 < o.min_diameter_m ||
-        2 * r0 > o.max_diameter_m) {
+    // A far stem's points are smeared along the line of sight (more than a trunk's face is deep),
+    // and a circle through them means nothing; its width across the line of sight still does.
+    Eigen::Vector2d c_across;
+    double r_across = 0, along_m = 0;
+    AcrossWidthCircle(all_xy, &c_across, &r_across, &along_m);
+    const bool circle_ok = along_m < 2 * r_across + o.max_depth_smear_m &&
+                           FitCircle(all_xy, &c0, &r0, &rms0) && 2 * r0 >= o.min_diameter_m &&
+                           2 * r0 <= o.max_diameter_m;
+    if (!circle_ok) c0 = c_across, r0 = r_across;
+    if (2 * r0 < o.min_diameter_m || 2 * r0 > o.max_diameter_m) {
       ++result.rejected_size;
-      spdlog::debug("stems: part of {} points at ({:.2f}, {:.2f}) rejected: diameter {:.2f} m",
-                    m.size(), c0.x(), c0.y(), 2 * r0);
+      spdlog::debug(
+          "stems: part of {} points at ({:.2f}, {:.2f}) rejected: diameter {:.2f} m (ground "
+          "{:.2f})",
+          m.size(), c0.x(), c0.y(), 2 * r0, ground.Height(c0.x(), c0.y()));
       continue;
     }
     // Verticality: centroids of three sub-slices of the band on one near-vertical line.
@@ -268,6 +356,11 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     }
     s.dbh_circle_m = 2 * r;
     s.dbh_slice_m = SliceWidth(slice, c);
+    if (!circle_ok) {
+      AcrossWidthCircle(slice, &c, &r);
+      s.dbh_circle_m = s.dbh_slice_m = 2 * r;
+      s.depth_smeared = true;
+    }
     s.pass_through = PassThroughRatio(band, c, r);
     if (s.pass_through > o.free_space_veto) {
       ++result.vetoed_free_space;

@@ -18,6 +18,14 @@ struct StemOptions {
   double grid_m = 0.02;  // occupancy grid of the band
   int min_cell_points = 2;
   bool split_wide_parts = false;  // re-split parts too wide for one stem on denser cells
+  // Split parts too wide for one stem where their bearings from the centre leave a gap of
+  // split_gap_m (across the line of sight), then where their ranges leave split_range_gap_m.
+  bool split_by_bearing = true;
+  // Points spread along the line of sight by more than the stem's width plus this are smeared
+  // by depth noise: the stem is placed and sized by its width across the line of sight.
+  double max_depth_smear_m = 0.3;
+  double split_gap_m = 0.06;
+  double split_range_gap_m = 0.6;
   int min_points = 25;
   // Breast-height slice points times the area one depth pixel covers at the stem's distance
   // (m², summed over the pairs that see it). Stereo points thin out with the square of the
@@ -46,6 +54,9 @@ struct Stem {
   double arc_deg = 0.0;  // spread of the viewing directions
   double lean_deg = 0.0;
   double pass_through = 0.0;  // free-space ratio
+  // The points were smeared along the line of sight (far stems): centre and width come from
+  // their spread across it, and neither is a reliable check on the silhouettes.
+  bool depth_smeared = false;
   std::vector<std::string> flags;
 };
 

@@ -64,5 +64,34 @@ TEST(Stems, DetectsTrunksAndVetoesAGhost) {
   EXPECT_NEAR(r.stems[1].dbh_m, 0.50, 0.01);
 }
 
+// A far trunk as stereo sees it: its front face smeared ±0.4 m along the line of sight. Its
+// circle fit means nothing; the width across the line of sight still gives bearing and size.
+TEST(Stems, SmearedFarTrunkIsKeptByItsWidthAcross) {
+  Rng rng(4);
+  std::vector<dense::CloudPoint> cloud;
+  const Eigen::Vector3d origin(0, 0, 1.3);
+  for (int i = 0; i < 60000; ++i) {
+    const Eigen::Vector3d p(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01));
+    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+  }
+  const double bearing = 0.6, range = 9.5, r = 0.17;
+  const Eigen::Vector2d u(std::cos(bearing), std::sin(bearing)), across(-u.y(), u.x());
+  for (int i = 0; i < 4000; ++i) {
+    const double a = rng.Uniform(-1.3, 1.3);  // the face toward the centre
+    const Eigen::Vector2d xy =
+        (range + r - r * std::cos(a) + rng.Uniform(-0.4, 0.4)) * u + r * std::sin(a) * across;
+    const Eigen::Vector3d p(xy.x(), xy.y(), rng.Uniform(0, 3));
+    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+  }
+  const GroundGrid ground(cloud, 13, 0.5);
+  const StemsResult res = DetectStems(StemOptions(), cloud, ground);
+  ASSERT_EQ(res.stems.size(), 1u);
+  const Stem& s = res.stems[0];
+  EXPECT_TRUE(s.depth_smeared);
+  EXPECT_NEAR(std::atan2(s.centre_xy.y(), s.centre_xy.x()), bearing, 0.005);
+  EXPECT_NEAR(s.centre_xy.norm(), range + r, 0.3);
+  EXPECT_NEAR(s.dbh_slice_m, 2 * r, 0.05);
+}
+
 }  // namespace
 }  // namespace stemmap::stems

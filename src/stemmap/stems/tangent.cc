@@ -4,6 +4,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace stemmap::stems {
@@ -282,6 +283,33 @@ bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, dou
   return true;
 }
 
+namespace {
+
+// Which silhouettes (image left, right) of a stem at distance d along u from camera centre cc lie
+// within the edge search of a nearer stem's silhouette: there the edge found may be the
+// occluder's.
+std::array<bool, 2> HiddenSides(const TangentOptions& o, const TangentViews& v,
+                                const Eigen::Vector2d& cc, const Eigen::Vector2d& u, double d,
+                                double r, double alpha) {
+  std::array<bool, 2> hidden = {false, false};
+  if (!v.occluders) return hidden;
+  const double bearing = std::atan2(u.y(), u.x());
+  const double margin = o.search_px / v.camera->fx + o.search_share * alpha;
+  for (const Eigen::Vector3d& q : *v.occluders) {
+    const Eigen::Vector2d to_q = q.head<2>() - cc;
+    const double dq = to_q.norm();
+    if (dq <= q.z() || dq + q.z() >= d - r) continue;  // not in front
+    const double aq = std::asin(std::min(1.0, q.z() / dq));
+    const double off = std::remainder(std::atan2(to_q.y(), to_q.x()) - bearing, 2 * M_PI);
+    // Image left is counter-clockwise of the line of sight (z up).
+    if (std::abs(alpha - off) < aq + margin) hidden[0] = true;
+    if (std::abs(-alpha - off) < aq + margin) hidden[1] = true;
+  }
+  return hidden;
+}
+
+}  // namespace
+
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z) {
   TangentFit fit;
@@ -329,9 +357,11 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
         if (e.right) edge_y[1].push_back(y), edge_x[1].push_back(e.x_right);
       }
       const int min_points = std::max(1, (2 * bands + 1 + 1) / 2);
+      const std::array<bool, 2> hidden = HiddenSides(o, v, cc, u, d, r, alpha);
       bool used = false;
       for (int s = 0; s < 2; ++s) {
         double x;
+        if (hidden[s]) continue;
         if (!FitEdgeLine(edge_y[s], edge_x[s], p_img.y(), min_points, &x)) continue;
         const Eigen::Vector3d ray = world_from_cam.rotation * cam.CamRayFromImage({x, p_img.y()});
         Eigen::Vector2d dir = ray.head<2>();
@@ -363,6 +393,9 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     spdlog::debug("tangent:   solved ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm", c_new.x(), c_new.y(),
                   r_new, 1000 * rms);
     if ((c_new - centre0).norm() > 0.5 || r_new > 3 * radius0 + 0.1) return fit;
+    // The cloud misjudges depth, not bearing: a fit that moved sideways found another stem.
+    const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
+    if (std::abs(across.dot(c_new - centre0)) > std::max(o.max_sideways_m, radius0)) return fit;
     // A refit that jumps away from an accepted one lost the silhouettes it had: keep that one.
     if (fit.ok && std::abs(r_new - fit.radius_m) > 0.25 * fit.radius_m) return fit;
     c = c_new;

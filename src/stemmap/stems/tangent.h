@@ -36,6 +36,7 @@ struct TangentOptions {
   // The starting centre (from the cloud) as a prior of this share of the stem's distance.
   double prior_share_of_distance = 0.05;
   int min_rays = 8;
+  double max_sideways_m = 0.1;       // move across the line of sight from the start (or its radius)
   int refits = 2;                    // edge search again around the refined circle
   bool refine_on_brightness = true;  // move each edge onto the nearby brightness step
 
@@ -53,6 +54,8 @@ struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
   const std::vector<StampedPose>* keyframes = nullptr;  // plot frame
   const std::vector<cv::Mat>* gray = nullptr;           // CV_8U per keyframe (empty: missing)
+  // Other stems (x, y, radius; plot frame): a silhouette next to a nearer one's is not used.
+  const std::vector<Eigen::Vector3d>* occluders = nullptr;
 };
 
 struct TangentFit {
