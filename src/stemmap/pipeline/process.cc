@@ -130,6 +130,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       continue;
     }
     ++fitted;
+    if (s.depth_smeared) s.flags.push_back("depth_smeared");
     s.dbh_tangent_m = 2 * f.radius_m;
     s.dbh_tangent_sd_m = 2 * f.radius_sd_m;
     // The silhouettes place the stem better than the cloud's depth does, whichever DBH is kept.

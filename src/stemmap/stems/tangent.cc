@@ -299,6 +299,8 @@ std::array<bool, 2> HiddenSides(const TangentOptions& o, const TangentViews& v,
     const Eigen::Vector2d to_q = q.head<2>() - cc;
     const double dq = to_q.norm();
     if (dq <= q.z() || dq + q.z() >= d - r) continue;  // not in front
+    // The stem itself (its start, before the fit moved it), or one merged with it.
+    if ((to_q - d * u).norm() < q.z() + r + o.occluder_min_gap_m) continue;
     const double aq = std::asin(std::min(1.0, q.z() / dq));
     const double off = std::remainder(std::atan2(to_q.y(), to_q.x()) - bearing, 2 * M_PI);
     // Image left is counter-clockwise of the line of sight (z up).

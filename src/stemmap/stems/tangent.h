@@ -37,6 +37,7 @@ struct TangentOptions {
   double prior_share_of_distance = 0.05;
   int min_rays = 8;
   double max_sideways_m = 0.1;       // move across the line of sight from the start (or its radius)
+  double occluder_min_gap_m = 0.5;   // nearer stems closer than this to the stem are itself
   int refits = 2;                    // edge search again around the refined circle
   bool refine_on_brightness = true;  // move each edge onto the nearby brightness step
 

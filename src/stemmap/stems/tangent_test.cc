@@ -102,7 +102,8 @@ struct RenderedStem {
   std::vector<cv::Mat> gray;
 };
 
-RenderedStem RenderStem(const Eigen::Vector2d& centre, double radius, bool textured_background) {
+// Stems as (x, y, radius); the nearest one a pixel's ray meets is seen, each with its own bark.
+RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background) {
   RenderedStem r;
   for (int k = 0; k < 34; ++k) {
     const double th = (-30.0 + 2.0 * k) * M_PI / 180.0;
@@ -114,13 +115,20 @@ RenderedStem RenderStem(const Eigen::Vector2d& centre, double radius, bool textu
     for (int y = 0; y < img.rows; ++y) {
       for (int x = 0; x < img.cols; ++x) {
         const Eigen::Vector3d ray = world_from_cam.rotation * r.camera.CamRayFromImage({x, y});
-        const Eigen::Vector2d q = world_from_cam.translation.head<2>() - centre, u = ray.head<2>();
-        const double a = u.squaredNorm(), b = q.dot(u), c = q.squaredNorm() - radius * radius;
-        double luma = 210;  // sky
-        if (b * b - a * c >= 0 && -b - std::sqrt(b * b - a * c) > 0) {
-          const Eigen::Vector2d hit = q + (-b - std::sqrt(b * b - a * c)) / a * u;
-          luma = 80 + 25 * std::sin(40 * std::atan2(hit.y(), hit.x()));  // bark furrows
-        } else if (textured_background) {
+        const Eigen::Vector2d u = ray.head<2>();
+        double luma = 210, nearest = 1e9;  // sky
+        for (size_t i = 0; i < stems.size(); ++i) {
+          const Eigen::Vector2d q = world_from_cam.translation.head<2>() - stems[i].head<2>();
+          const double a = u.squaredNorm(), b = q.dot(u),
+                       c = q.squaredNorm() - stems[i].z() * stems[i].z();
+          if (b * b - a * c < 0) continue;
+          const double t = (-b - std::sqrt(b * b - a * c)) / a;
+          if (t <= 0 || t >= nearest) continue;
+          nearest = t;
+          const Eigen::Vector2d hit = q + t * u;
+          luma = 80 + 40 * i + 25 * std::sin(40 * std::atan2(hit.y(), hit.x()));  // furrows
+        }
+        if (nearest > 1e8 && textured_background) {
           const double az = std::atan2(u.y(), u.x());
           luma = 150 + 50 * std::sin(400 * az) * std::cos(30 * ray.z() / u.norm());
         }
@@ -138,7 +146,7 @@ TEST(Tangent, FitsARenderedStem) {
   const double radius = 0.15;
   for (bool textured : {false, true}) {
     SCOPED_TRACE(textured ? "textured background" : "plain sky");
-    const RenderedStem scene = RenderStem(centre, radius, textured);
+    const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}}, textured);
     const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
     const Eigen::Vector2d start = centre * (1.0 + 0.3 / centre.norm());
     const TangentFit fit =
@@ -149,6 +157,21 @@ TEST(Tangent, FitsARenderedStem) {
     EXPECT_LT((fit.centre - centre).norm(), 0.06);
     EXPECT_GT(fit.views, 10);
   }
+}
+
+// A nearer stem beside the measured one from most views: told where it stands, the fit leaves
+// out the silhouette sides next to it.
+TEST(Tangent, LeavesOutSidesBesideANearerStem) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.15;
+  const std::vector<Eigen::Vector3d> stems = {{centre.x(), centre.y(), radius}, {3.0, 0.32, 0.12}};
+  const RenderedStem scene = RenderStems(stems, true);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray, &stems};
+  const TangentFit fit = FitTangentRays(TangentOptions().ForImageScale(640.0 / 960.0), views,
+                                        centre * (1.0 + 0.3 / centre.norm()), 0.13, 1.37);
+  ASSERT_TRUE(fit.ok);
+  EXPECT_NEAR(fit.radius_m, radius, 0.006);
+  EXPECT_LT((fit.centre - centre).norm(), 0.08);
 }
 
 TEST(Tangent, DegenerateSystems) {
