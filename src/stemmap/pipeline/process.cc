@@ -130,7 +130,12 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       continue;
     }
     ++fitted;
+    // The silhouettes' views replace the cloud's count.
+    std::erase(s.flags, std::string("few_views"));
+    if (f.views < 4) s.flags.push_back("few_views");
     if (s.depth_smeared) s.flags.push_back("depth_smeared");
+    // Over a quarter of the silhouettes beside a nearer stem: the width rests on the rest.
+    if (4 * f.hidden_sides > 2 * f.tried_views) s.flags.push_back("occluded");
     s.dbh_tangent_m = 2 * f.radius_m;
     s.dbh_tangent_sd_m = 2 * f.radius_sd_m;
     // The silhouettes place the stem better than the cloud's depth does, whichever DBH is kept.
@@ -140,7 +145,6 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     if (o.stems.dbh_method == "tangent") {
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
-      if (f.views < 4) s.flags.push_back("few_views");
     }
     kept.push_back(s);
   }

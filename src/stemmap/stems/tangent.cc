@@ -321,7 +321,7 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
   for (int round = 0; round <= o.refits; ++round) {
     std::vector<Eigen::Vector2d> normals, origins;
     std::vector<double> headings;
-    int views = 0, tried = 0;
+    int views = 0, tried = 0, hidden_sides = 0;
     for (size_t k = 0; k < v.keyframes->size(); ++k) {
       if ((*v.gray)[k].empty()) continue;
       const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
@@ -363,7 +363,10 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
       bool used = false;
       for (int s = 0; s < 2; ++s) {
         double x;
-        if (hidden[s]) continue;
+        if (hidden[s]) {
+          ++hidden_sides;
+          continue;
+        }
         if (!FitEdgeLine(edge_y[s], edge_x[s], p_img.y(), min_points, &x)) continue;
         const Eigen::Vector3d ray = world_from_cam.rotation * cam.CamRayFromImage({x, p_img.y()});
         Eigen::Vector2d dir = ray.head<2>();
@@ -409,6 +412,8 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     fit.rms_m = rms;
     fit.rays = static_cast<int>(normals.size());
     fit.views = views;
+    fit.hidden_sides = hidden_sides;
+    fit.tried_views = tried;
     if (!headings.empty()) {
       const auto [lo, hi] = std::minmax_element(headings.begin(), headings.end());
       fit.arc_deg = (*hi - *lo) * 180.0 / M_PI;

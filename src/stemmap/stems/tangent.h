@@ -64,6 +64,8 @@ struct TangentFit {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   double radius_m = 0.0, radius_sd_m = 0.0, rms_m = 0.0;
   int rays = 0, views = 0;
+  int tried_views = 0;   // keyframes that should see the stem
+  int hidden_sides = 0;  // silhouette sides (two a view) left out beside a nearer stem
   double arc_deg = 0.0;  // spread of the viewing directions used
 };
 

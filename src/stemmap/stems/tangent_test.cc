@@ -156,6 +156,7 @@ TEST(Tangent, FitsARenderedStem) {
     EXPECT_NEAR(fit.radius_m, radius, 0.005);
     EXPECT_LT((fit.centre - centre).norm(), 0.06);
     EXPECT_GT(fit.views, 10);
+    EXPECT_EQ(fit.hidden_sides, 0);
   }
 }
 
@@ -172,6 +173,8 @@ TEST(Tangent, LeavesOutSidesBesideANearerStem) {
   ASSERT_TRUE(fit.ok);
   EXPECT_NEAR(fit.radius_m, radius, 0.006);
   EXPECT_LT((fit.centre - centre).norm(), 0.08);
+  EXPECT_GT(fit.hidden_sides, 0);
+  EXPECT_LT(fit.hidden_sides, 2 * fit.tried_views);
 }
 
 TEST(Tangent, DegenerateSystems) {
