@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
+#include <functional>
 
 #include "stemmap/camera/camera.h"
 #include "stemmap/core/pose.h"
@@ -11,29 +12,45 @@
 namespace stemmap::stems {
 namespace {
 
+// Rays tangent to the circle (centre, radius) from n camera centres on the unit circle at
+// angles phi0..phi1, both sides, with noise_rad of edge noise; clip_m(k, side) bites that many
+// metres off a ray at the stem (an occluder).
+struct Rays {
+  std::vector<Eigen::Vector2d> normals, origins;
+};
+
+Rays TangentRaysFromArc(const Eigen::Vector2d& centre, double radius, double phi0, double phi1,
+                        int n, double noise_rad, Rng& rng,
+                        const std::function<double(int, int)>& clip_m = nullptr) {
+  Rays rays;
+  for (int k = 0; k < n; ++k) {
+    const double phi = phi0 + (phi1 - phi0) * k / (n - 1.0);
+    const Eigen::Vector2d c(std::cos(phi), std::sin(phi));
+    const Eigen::Vector2d to = centre - c;
+    const double d = to.norm(), alpha = std::asin(radius / d);
+    for (int side : {-1, 1}) {
+      double a = side * alpha + rng.Normal(0, noise_rad);
+      if (clip_m) a -= clip_m(k, side) / d;
+      const Eigen::Vector2d dir = Eigen::Rotation2Dd(a) * (to / d);
+      Eigen::Vector2d nrm(-dir.y(), dir.x());
+      if (nrm.dot(centre - c) < 0) nrm = -nrm;
+      rays.normals.push_back(nrm);
+      rays.origins.push_back(c);
+    }
+  }
+  return rays;
+}
+
 // Tangent lines to a circle from cameras along the arm's arc, a few of them clipped by an
 // occluder: the fit recovers centre and radius and ignores the clipped rays.
 TEST(Tangent, CircleFromTangentRays) {
   const Eigen::Vector2d centre(5.0, 1.0);
   const double radius = 0.2;
   Rng rng(3);
-  std::vector<Eigen::Vector2d> normals, origins;
-  for (int k = 0; k < 30; ++k) {
-    const double phi = -0.3 + 0.6 * k / 29.0;
-    const Eigen::Vector2d c(std::cos(phi), std::sin(phi));
-    const Eigen::Vector2d to = centre - c;
-    const double d = to.norm(), alpha = std::asin(radius / d);
-    for (int side : {-1, 1}) {
-      // Edge ray direction, with 0.3 mrad of edge noise; every tenth ray clipped by 2 cm.
-      double a = side * alpha + rng.Normal(0, 3e-4);
-      if (k % 10 == 0 && side == 1) a -= 0.02 / d;
-      const Eigen::Vector2d dir = Eigen::Rotation2Dd(a) * (to / d);
-      Eigen::Vector2d n(-dir.y(), dir.x());
-      if (n.dot(centre - c) < 0) n = -n;
-      normals.push_back(n);
-      origins.push_back(c);
-    }
-  }
+  // 0.3 mrad of edge noise; every tenth ray clipped by 2 cm.
+  const auto [normals, origins] =
+      TangentRaysFromArc(centre, radius, -0.3, 0.3, 30, 3e-4, rng,
+                         [](int k, int side) { return k % 10 == 0 && side == 1 ? 0.02 : 0.0; });
   Eigen::Vector2d fitted;
   double r = 0, r_sd = 0, rms = 0;
   ASSERT_TRUE(SolveTangentCircle(normals, origins, 0.004, &fitted, &r, &r_sd, &rms, nullptr));
@@ -69,20 +86,7 @@ TEST(Tangent, CentrePriorHoldsTheDepth) {
   const Eigen::Vector2d centre(10.0, 0.0);
   const double radius = 0.18;
   Rng rng(7);
-  std::vector<Eigen::Vector2d> normals, origins;
-  for (int k = 0; k < 12; ++k) {
-    const double phi = -0.01 + 0.02 * k / 11.0;
-    const Eigen::Vector2d c(std::cos(phi), std::sin(phi));
-    const Eigen::Vector2d to = centre - c;
-    const double d = to.norm(), alpha = std::asin(radius / d);
-    for (int side : {-1, 1}) {
-      const Eigen::Vector2d dir = Eigen::Rotation2Dd(side * alpha + rng.Normal(0, 3e-4)) * (to / d);
-      Eigen::Vector2d n(-dir.y(), dir.x());
-      if (n.dot(centre - c) < 0) n = -n;
-      normals.push_back(n);
-      origins.push_back(c);
-    }
-  }
+  const auto [normals, origins] = TangentRaysFromArc(centre, radius, -0.01, 0.01, 12, 3e-4, rng);
   const CentrePrior prior{Eigen::Vector2d(10.3, 0.02), 0.5, 0.004};
   Eigen::Vector2d fitted;
   double r = 0, r_sd = 0, rms = 0;
