@@ -40,6 +40,21 @@ int DisplayRotationDeg(const AVStream* stream) {
   return (cw + 45) / 90 * 90 % 360;
 }
 
+// The decoded frame converted and scaled to w x h in `format` (an OpenCV image of `cv_type`),
+// through a conversion context cached in *ctx.
+cv::Mat Convert(SwsContext** ctx, const AVFrame* frame, int w, int h, AVPixelFormat format,
+                int cv_type) {
+  *ctx = sws_getCachedContext(*ctx, frame->width, frame->height,
+                              static_cast<AVPixelFormat>(frame->format), w, h, format, SWS_AREA,
+                              nullptr, nullptr, nullptr);
+  if (!*ctx) throw ProcessingError("cannot convert decoded frames");
+  cv::Mat img(h, w, cv_type);
+  uint8_t* dst[1] = {img.data};
+  const int dst_stride[1] = {static_cast<int>(img.step[0])};
+  sws_scale(*ctx, frame->data, frame->linesize, 0, frame->height, dst, dst_stride);
+  return img;
+}
+
 // The image turned clockwise by `rotation_deg` (0, 90, 180 or 270).
 cv::Mat Upright(const cv::Mat& img, int rotation_deg) {
   cv::Mat out;
@@ -162,14 +177,7 @@ std::optional<DecodedFrame> VideoReader::Next() {
     int ret = avcodec_receive_frame(m.dec, m.frame);
     if (ret == 0) {
       // Frames whose size changes mid-stream are rescaled to the first size.
-      m.sws = sws_getCachedContext(m.sws, m.frame->width, m.frame->height,
-                                   static_cast<AVPixelFormat>(m.frame->format), m.out_w, m.out_h,
-                                   AV_PIX_FMT_BGR24, SWS_AREA, nullptr, nullptr, nullptr);
-      if (!m.sws) throw ProcessingError("cannot convert decoded frames to BGR");
-      cv::Mat bgr(m.out_h, m.out_w, CV_8UC3);
-      uint8_t* dst[1] = {bgr.data};
-      const int dst_stride[1] = {static_cast<int>(bgr.step[0])};
-      sws_scale(m.sws, m.frame->data, m.frame->linesize, 0, m.frame->height, dst, dst_stride);
+      const cv::Mat bgr = Convert(&m.sws, m.frame, m.out_w, m.out_h, AV_PIX_FMT_BGR24, CV_8UC3);
       const AVStream* stream = m.fmt->streams[m.stream_index];
       const int64_t pts = m.frame->best_effort_timestamp;
       double t_s = pts == AV_NOPTS_VALUE
@@ -179,16 +187,9 @@ std::optional<DecodedFrame> VideoReader::Next() {
       t_s -= m.first_t_s;
       DecodedFrame out;
       if (m.options.full_gray) {
-        m.sws_gray =
-            sws_getCachedContext(m.sws_gray, m.frame->width, m.frame->height,
-                                 static_cast<AVPixelFormat>(m.frame->format), m.full_w, m.full_h,
-                                 AV_PIX_FMT_GRAY8, SWS_AREA, nullptr, nullptr, nullptr);
-        if (!m.sws_gray) throw ProcessingError("cannot convert decoded frames to grey");
-        cv::Mat gray(m.full_h, m.full_w, CV_8U);
-        uint8_t* gdst[1] = {gray.data};
-        const int gstride[1] = {static_cast<int>(gray.step[0])};
-        sws_scale(m.sws_gray, m.frame->data, m.frame->linesize, 0, m.frame->height, gdst, gstride);
-        out.gray_full = Upright(gray, m.info.rotation_deg);
+        out.gray_full =
+            Upright(Convert(&m.sws_gray, m.frame, m.full_w, m.full_h, AV_PIX_FMT_GRAY8, CV_8U),
+                    m.info.rotation_deg);
       }
       av_frame_unref(m.frame);
       out.index = m.decoded++;
