@@ -15,6 +15,7 @@ namespace stemmap::sim {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kFleckTexelM = 0.15;
 
 double SmoothStep(double e0, double e1, double x) {
   const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
@@ -64,6 +65,16 @@ void Renderer::BuildShadowMap() {
   shadow_origin_x_ = -half;
   shadow_origin_y_ = -half;
   shadow_depth_ = cv::Mat(n, n, CV_32F, cv::Scalar(1e9));
+  // The crowns' openings, tabulated: smooth at this texel (their finest octave is 0.75 m).
+  const int nf = static_cast<int>(std::ceil(2.0 * half / kFleckTexelM)) + 2;
+  fleck_ = cv::Mat(nf, nf, CV_32F);
+  for (int i = 0; i < nf; ++i) {
+    float* row = fleck_.ptr<float>(i);
+    for (int j = 0; j < nf; ++j) {
+      row[j] = static_cast<float>(canopy_noise_.Fbm2((shadow_origin_x_ + j * kFleckTexelM) / 3.0,
+                                                     (shadow_origin_y_ + i * kFleckTexelM) / 3.0, 3));
+    }
+  }
   const Eigen::Vector3d down = -s;
   for (const SceneTree& tree : scene_.trees) {
     const Stem& stem = tree.stem;
@@ -103,7 +114,18 @@ double Renderer::SunVisibility(const Eigen::Vector3d& p) const {
   const double k = (zc - p.z()) / s.z();
   const Eigen::Vector3d q = p + s * k;
   // Sun flecks: light passes where the crowns open (same pattern for every point along a ray).
-  const double c = canopy_noise_.Fbm2(q.x() / 3.0, q.y() / 3.0, 3);
+  double c;
+  const double gx = (q.x() - shadow_origin_x_) / kFleckTexelM;
+  const double gy = (q.y() - shadow_origin_y_) / kFleckTexelM;
+  const int gj = static_cast<int>(std::floor(gx)), gi = static_cast<int>(std::floor(gy));
+  if (gi >= 0 && gj >= 0 && gi + 1 < fleck_.rows && gj + 1 < fleck_.cols) {
+    const float* r0 = fleck_.ptr<float>(gi) + gj;
+    const float* r1 = fleck_.ptr<float>(gi + 1) + gj;
+    const double wx = gx - gj, wy = gy - gi;
+    c = (1 - wy) * ((1 - wx) * r0[0] + wx * r0[1]) + wy * ((1 - wx) * r1[0] + wx * r1[1]);
+  } else {
+    c = canopy_noise_.Fbm2(q.x() / 3.0, q.y() / 3.0, 3);
+  }
   const double th = (L.canopy_cover - 0.5) * 0.7;
   double vis = SmoothStep(th - 0.05, th + 0.08, c);
   if (k <= 0 || vis <= 0) return std::max(vis, 0.0);
@@ -193,7 +215,7 @@ double Renderer::IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
                                  double t_max) const {
   const Ground& g = scene_.ground;
   const double lip = g.LipschitzBound();
-  const double dxy = std::hypot(d.x(), d.y());
+  const double dxy = std::sqrt(d.x() * d.x() + d.y() * d.y());  // not hypot: hot, and no overflow
   if (d.z() > lip * dxy) return kInf;  // climbs faster than any slope
   const double rate = std::abs(d.z()) + lip * dxy;
   // Skip to where the ray enters the slab of ±bump around the ground plane.
@@ -209,18 +231,34 @@ double Renderer::IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
   Eigen::Vector3d p0 = o + t * d;
   double h = p0.z() - g.Height(p0.x(), p0.y());
   if (h <= 0) return t > 0 ? t : kInf;
+  // Over-relaxed sphere tracing: twice the safe step, and a crossing found between two samples is
+  // refined by regula falsi. The ground is smooth at the step sizes near it, so a skipped sliver
+  // of a crest is the only cost, and grazing rays need half the steps.
+  constexpr double kRelax = 2.0;
   for (int it = 0; it < 96 && t < t_max; ++it) {
     if (h < 1e-4 * (1.0 + t)) return t;
-    const double step = h / rate;
-    const double t_next = t + std::max(step, 1e-4);
+    const double t_next = t + std::max(kRelax * h / rate, 1e-4);
     const Eigen::Vector3d p = o + t_next * d;
     const double h_next = p.z() - g.Height(p.x(), p.y());
     if (h_next < 0) {
-      double lo = t, hi = t_next;
-      for (int b = 0; b < 16; ++b) {
-        const double mid = 0.5 * (lo + hi);
+      // Illinois variant: halve the weight of an end that stays put twice.
+      double lo = t, hi = t_next, h_lo = h, h_hi = h_next;
+      int side = 0;
+      for (int b = 0; b < 8 && hi - lo > 1e-5 * (1.0 + lo); ++b) {
+        const double mid = lo + (hi - lo) * h_lo / (h_lo - h_hi);
         const Eigen::Vector3d pm = o + mid * d;
-        (pm.z() - g.Height(pm.x(), pm.y()) < 0 ? hi : lo) = mid;
+        const double h_mid = pm.z() - g.Height(pm.x(), pm.y());
+        if (h_mid < 0) {
+          hi = mid;
+          h_hi = h_mid;
+          if (side == -1) h_lo *= 0.5;
+          side = -1;
+        } else {
+          lo = mid;
+          h_lo = h_mid;
+          if (side == 1) h_hi *= 0.5;
+          side = 1;
+        }
       }
       return hi;
     }

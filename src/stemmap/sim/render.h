@@ -66,6 +66,7 @@ class Renderer {
   // Sun shadow map: distance from the canopy plane along -sun to the first trunk.
   cv::Mat shadow_depth_;
   double shadow_origin_x_ = 0.0, shadow_origin_y_ = 0.0;
+  cv::Mat fleck_;  // canopy openings on the crown plane (same origin, coarser texel)
   double wall_radius_m_ = 45.0;
   ValueNoise ground_noise_, canopy_noise_, wall_noise_, leaf_noise_;
 };

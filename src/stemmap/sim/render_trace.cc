@@ -43,7 +43,7 @@ std::vector<Renderer::Candidate> Renderer::ColumnCandidates(const Eigen::Vector3
 Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
                                  const std::vector<Candidate>& candidates) const {
   Sample s;
-  const double dxy = std::hypot(d.x(), d.y());
+  const double dxy = std::sqrt(d.x() * d.x() + d.y() * d.y());
   // Where the ray leaves the modelled scene through the distant-forest wall.
   double t_wall = kInf;
   if (dxy > 1e-9) {
@@ -52,12 +52,20 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
     const double c = o.x() * o.x() + o.y() * o.y() - wall_radius_m_ * wall_radius_m_;
     t_wall = (-b + std::sqrt(std::max(0.0, b * b - a * c))) / a;
   }
-  double t_best = IntersectGround(o, d, t_wall);
-  int object = t_best < kInf ? kObjGround : kObjSky;
+  // Objects first, the ground after and only up to the nearest object: marching the ground
+  // behind a trunk is wasted. A descending ray meets the ground no later than the slab bottom,
+  // which bounds the object search for rays that hit the ground near the camera.
+  const Ground& g = scene_.ground;
+  double t_ground_max = t_wall;
+  const double below = o.z() - g.PlaneHeight(o.x(), o.y()) + g.BumpBound();
+  const double closing = g.plane_gradient().dot(d.head<2>()) - d.z();
+  if (closing > 0) t_ground_max = std::min(t_ground_max, std::max(below, 0.0) / closing);
+  double t_best = kInf;
+  int object = kObjSky;
   Eigen::Vector3d normal(0, 0, 1);
   Eigen::Vector3f albedo(0, 0, 0);
   for (const Candidate& c : candidates) {
-    const double t_limit = std::min(t_best, t_wall);
+    const double t_limit = std::min(t_best, t_ground_max);
     if (c.min_dist_xy_m > t_limit * dxy + 1e-6) break;
     if (c.index >= 0) {
       const auto hit = scene_.trees[c.index].stem.Intersect(o, d, 1e-4, t_limit, 0.25 / camera_.fx);
@@ -78,6 +86,12 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
         albedo = a;
       }
     }
+  }
+
+  const double t_ground = IntersectGround(o, d, std::min(t_best, t_wall));
+  if (t_ground < t_best) {
+    t_best = t_ground;
+    object = kObjGround;
   }
 
   Eigen::Vector3f rgb;

@@ -22,6 +22,31 @@ inline float SrgbEncode(float x) {
   return x <= 0.0031308f ? 12.92f * x : 1.055f * std::pow(x, 1.0f / 2.4f) - 0.055f;
 }
 
+// Filmic tone curve then sRGB encoding to 8 bits, tabulated over exposed linear values; the
+// table is fine enough (1/4096 below 1, coarser above where the shoulder is flat) that no output
+// code changes by more than one.
+class ToneTable {
+ public:
+  ToneTable() {
+    for (int i = 0; i < kSize; ++i) {
+      table_[i] = static_cast<uint8_t>(std::lround(255.0f * SrgbEncode(Filmic(Value(i)))));
+    }
+  }
+  uint8_t operator()(float x) const {
+    if (!(x > 0.0f)) return table_[0];
+    const float f = x < 1.0f ? x * kFine : kFine + (x - 1.0f) * kCoarse;
+    return table_[std::min(static_cast<int>(f + 0.5f), kSize - 1)];
+  }
+
+ private:
+  static constexpr int kFine = 4096, kCoarse = 256, kSize = kFine + 16 * kCoarse;
+  static float Value(int i) {
+    return i <= kFine ? static_cast<float>(i) / kFine
+                      : 1.0f + static_cast<float>(i - kFine) / kCoarse;
+  }
+  uint8_t table_[kSize];
+};
+
 }  // namespace
 
 void SensorParams::Check() const {
@@ -72,6 +97,7 @@ cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s, 
   cv::Mat out(h, w, CV_8UC3);
   const uint64_t frame_hash = Mix64(params_.seed ^ (static_cast<uint64_t>(frame_index) << 20));
   const float exposure = static_cast<float>(exposure_);
+  static const ToneTable tone;
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < h; ++v) {
     const auto* row = rad.ptr<cv::Vec3f>(v);
@@ -105,7 +131,7 @@ cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s, 
         x += sd * gauss_[g];
         g = (g + 1) & (kGaussTable - 1);
         // Output is BGR; radiance is RGB.
-        dst[u][2 - ch] = static_cast<uint8_t>(std::lround(255.0f * SrgbEncode(Filmic(x))));
+        dst[u][2 - ch] = tone(x);
       }
     }
   }

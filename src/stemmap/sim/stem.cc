@@ -113,7 +113,7 @@ double Stem::SurfaceRadius(double phi, double s) const {
 
 double Stem::Field(const Eigen::Vector3d& q) const {
   if (q.z() < -kBelowGroundM || q.z() > p_.height_m) return 1.0;
-  const double rho = std::hypot(q.x(), q.y());
+  const double rho = std::sqrt(q.x() * q.x() + q.y() * q.y());  // not hypot: hot, and no overflow
   if (rho < 1e-9) return -MeanRadius(q.z());
   const double e = EllipseFactor(q.x() / rho, q.y() / rho);
   return rho - (e * MeanRadius(q.z()) + Relief(TurnFraction(q.x(), q.y()), q.z()));
@@ -176,20 +176,29 @@ std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
       break;
     }
     t_prev = t;
-    t += std::max(f / march_lipschitz_, 2e-5);
+    // Over-relaxed: twice the Lipschitz-safe step; an overshoot is caught by the sign test above.
+    t += std::max(2.0 * f / march_lipschitz_, 2e-5);
     f = Field(os + t * ds);
   }
   if (!found || t > t_end || t < t_min) return std::nullopt;
 
+  // Normal from the field's gradient in cylindrical coordinates, F = rho - S(phi, s):
+  // grad F = e_rho - (dS/dphi / rho) e_phi - (dS/ds) e_z, with S differenced along phi and s.
   const Eigen::Vector3d q = os + t * ds;
-  const double h = 4e-4, f0 = Field(q);
-  const Eigen::Vector3d grad(Field(q + Eigen::Vector3d(h, 0, 0)) - f0,
-                             Field(q + Eigen::Vector3d(0, h, 0)) - f0,
-                             Field(q + Eigen::Vector3d(0, 0, h)) - f0);
+  const double rho = std::max(std::sqrt(q.x() * q.x() + q.y() * q.y()), 1e-9);
+  const double phi = std::atan2(q.y(), q.x());
+  const double h = 4e-4;
+  const double u = TurnFraction(q.x(), q.y());
+  const double relief = Relief(u, q.z());
+  const double s0 = EllipseFactor(q.x() / rho, q.y() / rho) * MeanRadius(q.z()) + relief;
+  const double dS_dphi = (SurfaceRadius(phi + h / rho, q.z()) - s0) * rho / h;
+  const double dS_ds = (SurfaceRadius(phi, q.z() + h) - s0) / h;
+  const Eigen::Vector3d e_rho(q.x() / rho, q.y() / rho, 0.0), e_phi(-e_rho.y(), e_rho.x(), 0.0);
+  const Eigen::Vector3d grad = e_rho - (dS_dphi / rho) * e_phi - dS_ds * Eigen::Vector3d::UnitZ();
   StemHit hit;
   hit.t = t;
   hit.normal_world = world_from_stem_ * grad.normalized();
-  hit.albedo = Albedo(TurnFraction(q.x(), q.y()), q.z());
+  hit.albedo = Albedo(u, q.z(), relief);
   return hit;
 }
 
@@ -213,8 +222,7 @@ double Stem::EnvelopeEntry(const Eigen::Vector3d& o, const Eigen::Vector3d& d) c
   return t > 0 ? t : std::numeric_limits<double>::infinity();
 }
 
-Eigen::Vector3f Stem::Albedo(double u, double s) const {
-  const double relief = Relief(u, s);
+Eigen::Vector3f Stem::Albedo(double u, double s, double relief) const {
   const double furrow = std::clamp(-relief / std::max(p_.furrow_depth_m, 1e-4), 0.0, 1.0);
   const double tint = 1.0 + 0.22 * noise_.Fbm2PeriodicX(u * 8.0, 3.0 * s, 8, 2);
   Eigen::Vector3f rgb = p_.bark_rgb * static_cast<float>(tint * (1.0 - 0.65 * furrow));

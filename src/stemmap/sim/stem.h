@@ -74,7 +74,7 @@ class Stem {
   double Relief(double u, double s) const;
   double EllipseFactor(double cos_phi, double sin_phi) const;
   double Field(const Eigen::Vector3d& p_stem) const;  // signed: < 0 inside
-  Eigen::Vector3f Albedo(double u, double s) const;
+  Eigen::Vector3f Albedo(double u, double s, double relief) const;  // relief = Relief(u, s)
   static double TurnFraction(double x, double y);
 
   StemParams p_;
