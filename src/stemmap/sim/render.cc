@@ -71,8 +71,9 @@ void Renderer::BuildShadowMap() {
   for (int i = 0; i < nf; ++i) {
     float* row = fleck_.ptr<float>(i);
     for (int j = 0; j < nf; ++j) {
-      row[j] = static_cast<float>(canopy_noise_.Fbm2((shadow_origin_x_ + j * kFleckTexelM) / 3.0,
-                                                     (shadow_origin_y_ + i * kFleckTexelM) / 3.0, 3));
+      row[j] =
+          static_cast<float>(canopy_noise_.Fbm2((shadow_origin_x_ + j * kFleckTexelM) / 3.0,
+                                                (shadow_origin_y_ + i * kFleckTexelM) / 3.0, 3));
     }
   }
   const Eigen::Vector3d down = -s;
@@ -216,7 +217,7 @@ double Renderer::IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
   const Ground& g = scene_.ground;
   const double lip = g.LipschitzBound();
   const double dxy = std::sqrt(d.x() * d.x() + d.y() * d.y());  // not hypot: hot, and no overflow
-  if (d.z() > lip * dxy) return kInf;  // climbs faster than any slope
+  if (d.z() > lip * dxy) return kInf;                           // climbs faster than any slope
   const double rate = std::abs(d.z()) + lip * dxy;
   // Skip to where the ray enters the slab of ±bump around the ground plane.
   double t = 0.0;

@@ -73,7 +73,7 @@ class Stem {
   // Bark relief (<= 0) at turn fraction u = azimuth / 2π in [0, 1) and height s.
   double Relief(double u, double s) const;
   double EllipseFactor(double cos_phi, double sin_phi) const;
-  double Field(const Eigen::Vector3d& p_stem) const;  // signed: < 0 inside
+  double Field(const Eigen::Vector3d& p_stem) const;                // signed: < 0 inside
   Eigen::Vector3f Albedo(double u, double s, double relief) const;  // relief = Relief(u, s)
   static double TurnFraction(double x, double y);
 
