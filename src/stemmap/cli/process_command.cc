@@ -27,6 +27,19 @@ void AddProcessCommand(CLI::App& app) {
                   "(fitted to that slice)")
       ->check(CLI::IsMember({"tangent", "slice", "circle"}))
       ->capture_default_str();
+  sub->add_option("--mask-model", opt->mask.model,
+                  "Optional learned trunk segmentation network (ONNX, or any format OpenCV's dnn "
+                  "reads); see docs/mask-model.md")
+      ->check(CLI::ExistingFile);
+  sub->add_option("--mask-input-width", opt->mask.input_width, "Mask network input width (px)")
+      ->capture_default_str();
+  sub->add_option("--mask-input-height", opt->mask.input_height, "Mask network input height (px)")
+      ->capture_default_str();
+  sub->add_option("--mask-trunk-channel", opt->mask.trunk_channel,
+                  "Output channel of the trunk class (a single-channel output is the trunk logit)")
+      ->capture_default_str();
+  sub->add_option("--mask-threshold", opt->mask.threshold, "Trunk probability threshold")
+      ->capture_default_str();
   sub->callback([sub, opt, video, out] {
     ApplyLogLevel(*sub);
     const pipeline::ProcessResult r = pipeline::RunProcess(*opt, *video, *out);

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -10,6 +11,7 @@
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/core/progress.h"
+#include "stemmap/dense/trunk_mask.h"
 
 namespace stemmap::dense {
 
@@ -92,6 +94,7 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
   DenseResult r;
   r.depth_focal_px = in.camera.fx * o.stereo.scale / o.stereo.pixel_step;
   Progress progress("depth", static_cast<int64_t>(pairs.size()));
+  int masked = 0;
   for (size_t i = 0; i < pairs.size(); ++i) {
     const auto [a, b] = pairs[i];
     const cv::Mat &ia = in.images[a], &ib = in.images[b];
@@ -99,6 +102,10 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
     std::vector<CloudPoint> pts =
         StereoPairPoints(o.stereo, ia, ib, in.camera, in.keyframes[a].world_from_cam,
                          in.keyframes[b].world_from_cam, a);
+    if (in.mask_model != nullptr) {
+      LabelTrunkPoints(in.mask_model->Predict(ia), in.camera, in.keyframes[a].world_from_cam, &pts);
+      ++masked;
+    }
     r.points.insert(r.points.end(), pts.begin(), pts.end());
     ++r.pairs;
     progress.Update(static_cast<int64_t>(i + 1));
@@ -108,6 +115,13 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   r.summary = {{"pairs", r.pairs}, {"points", r.points.size()}, {"wall_s", wall}};
+  if (in.mask_model != nullptr) {
+    const auto on_trunk = std::count_if(r.points.begin(), r.points.end(),
+                                        [](const CloudPoint& p) { return p.trunk == 1; });
+    r.summary["mask_model"] = in.mask_model->Describe();
+    r.summary["masked_keyframes"] = masked;
+    r.summary["trunk_points"] = on_trunk;
+  }
   WriteCloudPly(out_dir / "cloud.ply", r.points);
   WriteJsonAtomic(out_dir / "dense_summary.json", r.summary);
   spdlog::info("dense: {} pairs, {} points in {:.1f} s", r.pairs, r.points.size(), wall);

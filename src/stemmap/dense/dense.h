@@ -18,10 +18,13 @@ struct DenseOptions {
   void Check() const;
 };
 
+class TrunkMaskModel;
+
 struct DenseInput {
-  PinholeCamera camera;                // at the working resolution
-  std::vector<StampedPose> keyframes;  // plot frame
-  std::vector<cv::Mat> images;         // BGR keyframe images (empty Mat: not decoded)
+  PinholeCamera camera;                  // at the working resolution
+  std::vector<StampedPose> keyframes;    // plot frame
+  std::vector<cv::Mat> images;           // BGR keyframe images (empty Mat: not decoded)
+  TrunkMaskModel* mask_model = nullptr;  // optional: labels points on trunks (CloudPoint::trunk)
 };
 
 struct DenseResult {

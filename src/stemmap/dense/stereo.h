@@ -31,6 +31,7 @@ struct CloudPoint {
   Eigen::Vector3f origin;  // camera centre it was measured from
   cv::Vec3b bgr;
   int keyframe = 0;
+  int8_t trunk = -1;  // learned trunk mask: 1 on a stem, 0 not, -1 no mask
 };
 
 // Depth points of one pair, in the world frame of the poses. `cam` is the images' camera.

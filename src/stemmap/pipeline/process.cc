@@ -16,6 +16,7 @@ void ProcessOptions::Check() const {
   track.Check();
   dense.Check();
   stems.Check();
+  if (!mask.model.empty()) mask.Check();
   if (!(plot_radius_m > 0)) throw InputError("--plot-radius must be positive");
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
 }
@@ -166,12 +167,19 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
     return s;
   };
   nlohmann::json timing;
+  // A bad model file fails before the long work starts.
+  std::unique_ptr<dense::TrunkMaskModel> mask_model;
+  if (!o.mask.model.empty()) {
+    mask_model = dense::LoadDnnMaskModel(o.mask);
+    spdlog::info("trunk mask model: {}", mask_model->Describe());
+  }
   // The front end keeps the keyframe images: the video is decoded once.
   track::TrackOptions topt = o.track;
   topt.frontend.keep_keyframe_images = true;
   track::TrackResult tr = track::RunTrack(topt, video, out_dir);
   timing["track_s"] = lap();
   dense::DenseInput din{tr.camera, tr.keyframes, std::move(tr.keyframe_images)};
+  if (mask_model) din.mask_model = mask_model.get();
   const dense::DenseResult dr = dense::RunDense(o.dense, din, out_dir);
   timing["dense_s"] = lap();
   const stems::GroundGrid ground(dr.points, o.stems.search_radius_m + 2.0, 0.5);
@@ -199,13 +207,15 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   s["stems"]["ground_cells"] = ground.measured_cells();
   timing["total_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   s["timing_s"] = timing;
-  WriteJsonAtomic(out_dir / "process_options.json",
-                  {{"track", track::ToJson(o.track)},
-                   {"plot_radius_m", o.plot_radius_m},
-                   {"min_dbh_cm", o.min_dbh_cm},
-                   {"breast_height_m", o.stems.breast_height_m},
-                   {"dbh_method", o.stems.dbh_method},
-                   {"stereo_pair_turn_deg", o.dense.pair_turn_deg}});
+  WriteJsonAtomic(
+      out_dir / "process_options.json",
+      {{"track", track::ToJson(o.track)},
+       {"plot_radius_m", o.plot_radius_m},
+       {"min_dbh_cm", o.min_dbh_cm},
+       {"breast_height_m", o.stems.breast_height_m},
+       {"dbh_method", o.stems.dbh_method},
+       {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
+       {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});
   WriteJsonAtomic(out_dir / "summary.json", s);
   return r;
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "stemmap/dense/dense.h"
+#include "stemmap/dense/trunk_mask.h"
 #include "stemmap/stems/stems.h"
 #include "stemmap/stems/tangent.h"
 #include "stemmap/track/track.h"
@@ -15,6 +16,7 @@ namespace stemmap::pipeline {
 struct ProcessOptions {
   track::TrackOptions track;
   dense::DenseOptions dense;
+  dense::DnnMaskOptions mask;  // optional learned trunk mask (mask.model empty: none)
   stems::StemOptions stems;
   stems::TangentOptions tangent;
   double plot_radius_m = 10.0;  // plot figures count stems within this radius

@@ -257,8 +257,12 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
   // Parts of the band: connected occupied cells. A part too wide to be one stem (two trunks
   // smeared together by depth noise) is split again on its denser cells.
   std::vector<std::vector<int>> parts;
-  std::vector<int> all(band.size());
-  for (size_t i = 0; i < band.size(); ++i) all[i] = static_cast<int>(i);
+  // A learned trunk mask, where there is one, keeps other surfaces out of the parts; the free-space
+  // veto still sees every ray.
+  std::vector<int> all;
+  for (size_t i = 0; i < band.size(); ++i) {
+    if (band[i]->trunk != 0) all.push_back(static_cast<int>(i));
+  }
   std::vector<std::pair<std::vector<int>, int>> queue = {{all, o.min_cell_points}};
   while (!queue.empty()) {
     auto [idx, min_count] = std::move(queue.back());

@@ -7,6 +7,8 @@
 namespace stemmap::stems {
 namespace {
 
+constexpr int kGroundPoints = 60000, kTrunkPoints = 3000;
+
 TEST(Stems, CircleFromAnArc) {
   Rng rng(1);
   std::vector<Eigen::Vector2d> pts;
@@ -25,20 +27,20 @@ TEST(Stems, CircleFromAnArc) {
 }
 
 // A synthetic cloud: flat ground and two trunks seen from the arm; one "trunk" is a ghost that
-// rays pass through.
-TEST(Stems, DetectsTrunksAndVetoesAGhost) {
+// rays pass through. Points of the first trunk come first after the ground.
+std::vector<dense::CloudPoint> TwoTrunksAndAGhost() {
   Rng rng(2);
   std::vector<dense::CloudPoint> cloud;
   auto add = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& origin) {
     cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
   };
   const Eigen::Vector3d cam(1, 0, 1.3);
-  for (int i = 0; i < 60000; ++i) {  // ground
+  for (int i = 0; i < kGroundPoints; ++i) {
     add(Eigen::Vector3d(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01)), cam);
   }
   const std::vector<std::pair<Eigen::Vector2d, double>> trunks = {{{5, 0}, 0.15}, {{0, -6}, 0.25}};
   for (const auto& [c, r] : trunks) {
-    for (int i = 0; i < 3000; ++i) {
+    for (int i = 0; i < kTrunkPoints; ++i) {
       const double a = rng.Uniform(0, 2 * M_PI), z = rng.Uniform(0, 3);
       add(Eigen::Vector3d(c.x() + r * std::cos(a), c.y() + r * std::sin(a), z), cam);
     }
@@ -52,6 +54,11 @@ TEST(Stems, DetectsTrunksAndVetoesAGhost) {
     add(Eigen::Vector3d(rng.Uniform(-0.15, 0.15), rng.Uniform(8.5, 10.5), rng.Uniform(1.2, 1.8)),
         Eigen::Vector3d(0, 0, 1.3));
   }
+  return cloud;
+}
+
+TEST(Stems, DetectsTrunksAndVetoesAGhost) {
+  const std::vector<dense::CloudPoint> cloud = TwoTrunksAndAGhost();
   const GroundGrid ground(cloud, 13, 0.5);
   EXPECT_NEAR(ground.Height(3, 3), 0.0, 0.05);
   StemOptions o;
@@ -62,6 +69,22 @@ TEST(Stems, DetectsTrunksAndVetoesAGhost) {
   EXPECT_NEAR((r.stems[0].centre_xy - Eigen::Vector2d(5, 0)).norm(), 0, 0.02);
   EXPECT_NEAR(r.stems[0].dbh_m, 0.30, 0.01);
   EXPECT_NEAR(r.stems[1].dbh_m, 0.50, 0.01);
+}
+
+// With a learned trunk mask, points it calls "not a trunk" build no stem.
+TEST(Stems, TrunkMaskKeepsOtherSurfacesOut) {
+  std::vector<dense::CloudPoint> cloud = TwoTrunksAndAGhost();
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const bool first_trunk = i >= kGroundPoints && i < kGroundPoints + kTrunkPoints;
+    cloud[i].trunk = first_trunk ? 0 : 1;
+  }
+  const GroundGrid ground(cloud, 13, 0.5);
+  StemOptions o;
+  o.dbh_method = "circle";
+  const StemsResult r = DetectStems(o, cloud, ground);
+  ASSERT_EQ(r.stems.size(), 1u);
+  EXPECT_NEAR((r.stems[0].centre_xy - Eigen::Vector2d(0, -6)).norm(), 0, 0.02);
+  EXPECT_GE(r.vetoed_free_space, 1);  // the ghost's points are "trunk", its rays still veto it
 }
 
 // A far trunk as stereo sees it: its front face smeared ±0.4 m along the line of sight. Its
