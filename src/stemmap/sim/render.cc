@@ -15,7 +15,7 @@ namespace stemmap::sim {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kFleckTexelM = 0.15;
+constexpr double kFieldTexelM = 0.15;
 
 double SmoothStep(double e0, double e1, double x) {
   const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
@@ -65,17 +65,19 @@ void Renderer::BuildShadowMap() {
   shadow_origin_x_ = -half;
   shadow_origin_y_ = -half;
   shadow_depth_ = cv::Mat(n, n, CV_32F, cv::Scalar(1e9));
-  // The crowns' openings, tabulated: smooth at this texel (their finest octave is 0.75 m).
-  const int nf = static_cast<int>(std::ceil(2.0 * half / kFleckTexelM)) + 2;
-  fleck_ = cv::Mat(nf, nf, CV_32F);
-  for (int i = 0; i < nf; ++i) {
-    float* row = fleck_.ptr<float>(i);
-    for (int j = 0; j < nf; ++j) {
-      row[j] =
-          static_cast<float>(canopy_noise_.Fbm2((shadow_origin_x_ + j * kFleckTexelM) / 3.0,
-                                                (shadow_origin_y_ + i * kFleckTexelM) / 3.0, 3));
+  // The crowns' openings, tabulated: their finest octave (0.75 m) is five texels.
+  auto tabulate = [&](const ValueNoise& noise, FieldTable* table) {
+    const int nf = static_cast<int>(std::ceil(2.0 * half / kFieldTexelM)) + 2;
+    *table = {-half, -half, kFieldTexelM, cv::Mat(nf, nf, CV_32F)};
+    for (int i = 0; i < nf; ++i) {
+      float* row = table->values.ptr<float>(i);
+      for (int j = 0; j < nf; ++j) {
+        row[j] = static_cast<float>(
+            noise.Fbm2((-half + j * kFieldTexelM) / 3.0, (-half + i * kFieldTexelM) / 3.0, 3));
+      }
     }
-  }
+  };
+  tabulate(canopy_noise_, &fleck_);
   const Eigen::Vector3d down = -s;
   for (const SceneTree& tree : scene_.trees) {
     const Stem& stem = tree.stem;
@@ -108,6 +110,17 @@ void Renderer::BuildShadowMap() {
   }
 }
 
+bool Renderer::FieldTable::Read(double x, double y, double* v) const {
+  const double gx = (x - origin_x) / texel, gy = (y - origin_y) / texel;
+  const int j = static_cast<int>(std::floor(gx)), i = static_cast<int>(std::floor(gy));
+  if (i < 0 || j < 0 || i + 1 >= values.rows || j + 1 >= values.cols) return false;
+  const float* r0 = values.ptr<float>(i) + j;
+  const float* r1 = values.ptr<float>(i + 1) + j;
+  const double wx = gx - j, wy = gy - i;
+  *v = (1 - wy) * ((1 - wx) * r0[0] + wx * r0[1]) + wy * ((1 - wx) * r1[0] + wx * r1[1]);
+  return true;
+}
+
 double Renderer::SunVisibility(const Eigen::Vector3d& p) const {
   const Lighting& L = scene_.light;
   const Eigen::Vector3d& s = L.sun_dir_world;
@@ -116,17 +129,7 @@ double Renderer::SunVisibility(const Eigen::Vector3d& p) const {
   const Eigen::Vector3d q = p + s * k;
   // Sun flecks: light passes where the crowns open (same pattern for every point along a ray).
   double c;
-  const double gx = (q.x() - shadow_origin_x_) / kFleckTexelM;
-  const double gy = (q.y() - shadow_origin_y_) / kFleckTexelM;
-  const int gj = static_cast<int>(std::floor(gx)), gi = static_cast<int>(std::floor(gy));
-  if (gi >= 0 && gj >= 0 && gi + 1 < fleck_.rows && gj + 1 < fleck_.cols) {
-    const float* r0 = fleck_.ptr<float>(gi) + gj;
-    const float* r1 = fleck_.ptr<float>(gi + 1) + gj;
-    const double wx = gx - gj, wy = gy - gi;
-    c = (1 - wy) * ((1 - wx) * r0[0] + wx * r0[1]) + wy * ((1 - wx) * r1[0] + wx * r1[1]);
-  } else {
-    c = canopy_noise_.Fbm2(q.x() / 3.0, q.y() / 3.0, 3);
-  }
+  if (!fleck_.Read(q.x(), q.y(), &c)) c = canopy_noise_.Fbm2(q.x() / 3.0, q.y() / 3.0, 3);
   const double th = (L.canopy_cover - 0.5) * 0.7;
   double vis = SmoothStep(th - 0.05, th + 0.08, c);
   if (k <= 0 || vis <= 0) return std::max(vis, 0.0);

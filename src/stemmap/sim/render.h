@@ -66,7 +66,13 @@ class Renderer {
   // Sun shadow map: distance from the canopy plane along -sun to the first trunk.
   cv::Mat shadow_depth_;
   double shadow_origin_x_ = 0.0, shadow_origin_y_ = 0.0;
-  cv::Mat fleck_;  // canopy openings on the crown plane (same origin, coarser texel)
+  // A smooth field tabulated on a square grid and read bilinearly; Read() is false outside it.
+  struct FieldTable {
+    double origin_x = 0.0, origin_y = 0.0, texel = 1.0;
+    cv::Mat values;  // CV_32F
+    bool Read(double x, double y, double* v) const;
+  };
+  FieldTable fleck_;  // the crowns' openings, on the crown plane
   double wall_radius_m_ = 45.0;
   ValueNoise ground_noise_, canopy_noise_, wall_noise_, leaf_noise_;
 };
