@@ -116,8 +116,11 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     const stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
     // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
     // neighbour): keep the cloud's estimate and say so.
-    const bool plausible =
-        f.ok && (s.depth_smeared || std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01);
+    // A stem partly hidden from the stereo pairs is wider than its points: silhouettes on both
+    // sides in several views outrank them.
+    const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
+    const bool wider_two_sided = f.two_sided_views >= 3 && f.radius_m > r0 && f.radius_m < 2.5 * r0;
+    const bool plausible = f.ok && (s.depth_smeared || near_cloud || wider_two_sided);
     spdlog::debug("tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {}",
                   s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views);
     if (!plausible) {

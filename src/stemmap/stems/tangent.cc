@@ -310,18 +310,18 @@ std::array<bool, 2> HiddenSides(const TangentOptions& o, const TangentViews& v,
   return hidden;
 }
 
-}  // namespace
 
-TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
-                          const Eigen::Vector2d& centre0, double radius0, double breast_z) {
+TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
+                              const Eigen::Vector2d& centre0, double radius0, double r_start,
+                              double breast_z) {
   TangentFit fit;
   Eigen::Vector2d c = centre0;
-  double r = radius0;
+  double r = r_start;
   const PinholeCamera& cam = *v.camera;
   for (int round = 0; round <= o.refits; ++round) {
     std::vector<Eigen::Vector2d> normals, origins;
     std::vector<double> headings;
-    int views = 0, tried = 0, hidden_sides = 0;
+    int views = 0, tried = 0, hidden_sides = 0, two_sided = 0;
     for (size_t k = 0; k < v.keyframes->size(); ++k) {
       if ((*v.gray)[k].empty()) continue;
       const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
@@ -360,7 +360,7 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
       }
       const int min_points = std::max(1, (2 * bands + 1 + 1) / 2);
       const std::array<bool, 2> hidden = HiddenSides(o, v, cc, u, d, r, alpha);
-      bool used = false;
+      int used = 0;
       for (int s = 0; s < 2; ++s) {
         double x;
         if (hidden[s]) {
@@ -376,9 +376,10 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
         if (nrm.dot(c - cc) < 0) nrm = -nrm;
         normals.push_back(nrm);
         origins.push_back(cc);
-        used = true;
+        ++used;
       }
-      if (used) {
+      if (used == 2) ++two_sided;
+      if (used > 0) {
         ++views;
         const double h = std::atan2(-u.y(), -u.x());
         headings.push_back(
@@ -414,9 +415,25 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     fit.views = views;
     fit.hidden_sides = hidden_sides;
     fit.tried_views = tried;
+    fit.two_sided_views = two_sided;
     if (!headings.empty()) {
       const auto [lo, hi] = std::minmax_element(headings.begin(), headings.end());
       fit.arc_deg = (*hi - *lo) * 180.0 / M_PI;
+    }
+  }
+  return fit;
+}
+
+}  // namespace
+
+TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
+                          const Eigen::Vector2d& centre0, double radius0, double breast_z) {
+  TangentFit fit = FitTangentRaysFrom(o, v, centre0, radius0, radius0, breast_z);
+  for (double scale : o.wide_start_scales) {
+    const TangentFit wide = FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z);
+    if (wide.ok && (!fit.ok || wide.two_sided_views > fit.two_sided_views ||
+                    (wide.two_sided_views == fit.two_sided_views && wide.rays > fit.rays))) {
+      fit = wide;
     }
   }
   return fit;

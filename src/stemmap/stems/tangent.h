@@ -39,6 +39,10 @@ struct TangentOptions {
   double max_sideways_m = 0.1;       // move across the line of sight from the start (or its radius)
   double occluder_min_gap_m = 0.5;   // nearer stems closer than this to the stem are itself
   int refits = 2;                    // edge search again around the refined circle
+  // The search also starts from the stem's radius times these (the cloud sees part of a stem
+  // that a nearer one hides, and its width is too small to find the far silhouette); the start
+  // whose fit has the most two-sided views wins. Empty: only the given radius.
+  std::vector<double> wide_start_scales = {1.6, 2.2};
   bool refine_on_brightness = true;  // move each edge onto the nearby brightness step
 
   // The pixel sizes above are for a 960-px wide working image; the same for images `s` times as
@@ -66,10 +70,13 @@ struct TangentFit {
   int rays = 0, views = 0;
   int tried_views = 0;   // keyframes that should see the stem
   int hidden_sides = 0;  // silhouette sides (two a view) left out beside a nearer stem
-  double arc_deg = 0.0;  // spread of the viewing directions used
+  int two_sided_views = 0;  // views that gave both silhouettes
+  double arc_deg = 0.0;     // spread of the viewing directions used
 };
 
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
+// The circle found stays within max_sideways_m (or radius0) of centre0 across the line of sight
+// and within 0.5 m of it.
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z);
 

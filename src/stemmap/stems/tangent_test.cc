@@ -181,6 +181,23 @@ TEST(Tangent, LeavesOutSidesBesideANearerStem) {
   EXPECT_LT(fit.hidden_sides, 2 * fit.tried_views);
 }
 
+// The cloud saw only one half of the stem (a nearer one hid the rest from the stereo pairs): its
+// width is half the stem's and its centre off to one side. The wide start finds both silhouettes.
+TEST(Tangent, FitsAStemStartedFromHalfItsWidth) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.15;
+  const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}}, true);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre.y(), centre.x()).normalized();
+  const Eigen::Vector2d start = centre + 0.06 * across;
+  const TangentFit fit = FitTangentRays(TangentOptions().ForImageScale(640.0 / 960.0), views,
+                                        start, 0.5 * radius, 1.37);
+  ASSERT_TRUE(fit.ok);
+  EXPECT_NEAR(fit.radius_m, radius, 0.006);
+  EXPECT_LT((fit.centre - centre).norm(), 0.06);
+  EXPECT_GT(fit.two_sided_views, 10);
+}
+
 TEST(Tangent, DegenerateSystems) {
   Eigen::Vector2d c;
   double r, sd, rms;
