@@ -429,6 +429,8 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z) {
   TangentFit fit = FitTangentRaysFrom(o, v, centre0, radius0, radius0, breast_z);
+  // Most views two-sided: the start was wide enough.
+  if (fit.ok && 2 * fit.two_sided_views >= fit.tried_views) return fit;
   for (double scale : o.wide_start_scales) {
     const TangentFit wide = FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z);
     if (wide.ok && (!fit.ok || wide.two_sided_views > fit.two_sided_views ||
