@@ -310,7 +310,6 @@ std::array<bool, 2> HiddenSides(const TangentOptions& o, const TangentViews& v,
   return hidden;
 }
 
-
 TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
                               const Eigen::Vector2d& centre0, double radius0, double r_start,
                               double breast_z) {

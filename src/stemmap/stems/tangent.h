@@ -36,9 +36,9 @@ struct TangentOptions {
   // The starting centre (from the cloud) as a prior of this share of the stem's distance.
   double prior_share_of_distance = 0.05;
   int min_rays = 8;
-  double max_sideways_m = 0.1;       // move across the line of sight from the start (or its radius)
-  double occluder_min_gap_m = 0.5;   // nearer stems closer than this to the stem are itself
-  int refits = 2;                    // edge search again around the refined circle
+  double max_sideways_m = 0.1;      // move across the line of sight from the start (or its radius)
+  double occluder_min_gap_m = 0.5;  // nearer stems closer than this to the stem are itself
+  int refits = 2;                   // edge search again around the refined circle
   // The search also starts from the stem's radius times these (the cloud sees part of a stem
   // that a nearer one hides, and its width is too small to find the far silhouette); the start
   // whose fit has the most two-sided views wins. Empty: only the given radius.
@@ -68,8 +68,8 @@ struct TangentFit {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   double radius_m = 0.0, radius_sd_m = 0.0, rms_m = 0.0;
   int rays = 0, views = 0;
-  int tried_views = 0;   // keyframes that should see the stem
-  int hidden_sides = 0;  // silhouette sides (two a view) left out beside a nearer stem
+  int tried_views = 0;      // keyframes that should see the stem
+  int hidden_sides = 0;     // silhouette sides (two a view) left out beside a nearer stem
   int two_sided_views = 0;  // views that gave both silhouettes
   double arc_deg = 0.0;     // spread of the viewing directions used
 };

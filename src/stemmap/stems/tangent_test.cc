@@ -190,8 +190,8 @@ TEST(Tangent, FitsAStemStartedFromHalfItsWidth) {
   const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
   const Eigen::Vector2d across = Eigen::Vector2d(-centre.y(), centre.x()).normalized();
   const Eigen::Vector2d start = centre + 0.06 * across;
-  const TangentFit fit = FitTangentRays(TangentOptions().ForImageScale(640.0 / 960.0), views,
-                                        start, 0.5 * radius, 1.37);
+  const TangentFit fit = FitTangentRays(TangentOptions().ForImageScale(640.0 / 960.0), views, start,
+                                        0.5 * radius, 1.37);
   ASSERT_TRUE(fit.ok);
   EXPECT_NEAR(fit.radius_m, radius, 0.006);
   EXPECT_LT((fit.centre - centre).norm(), 0.06);
