@@ -146,6 +146,8 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     if (s.depth_smeared) s.flags.push_back("depth_smeared");
     // Over a quarter of the silhouettes beside a nearer stem: the width rests on the rest.
     if (4 * f.hidden_sides > 2 * f.tried_views) s.flags.push_back("occluded");
+    // Both silhouettes in too few views: the width rests on one side (a lower bound, mostly).
+    if (f.two_sided_views < 3) s.flags.push_back("one_sided");
     s.dbh_tangent_m = 2 * f.radius_m;
     s.dbh_tangent_sd_m = 2 * f.radius_sd_m;
     // The silhouettes place the stem better than the cloud's depth does, whichever DBH is kept.
