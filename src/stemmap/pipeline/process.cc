@@ -122,7 +122,9 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     const double px_m = s.centre_xy.norm() / camera.fx;
     const bool wider_two_sided =
         f.two_sided_views >= 3 && f.radius_m > r0 && f.radius_m < 2.5 * r0 && f.rms_m < 1.2 * px_m;
-    const bool plausible = f.ok && (s.depth_smeared || near_cloud || wider_two_sided);
+    // A part with little surface at breast height needs both silhouettes, agreeing to ~1 px.
+    const bool confirmed = !s.weak_support || (f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m);
+    const bool plausible = f.ok && confirmed && (s.depth_smeared || near_cloud || wider_two_sided);
     spdlog::debug(
         "tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {} two-sided {} of "
         "{} "
@@ -130,8 +132,8 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
         s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
         f.tried_views, 1000 * f.rms_m);
     if (!plausible) {
-      // A smeared part is a stem only if silhouettes confirm it.
-      if (s.depth_smeared) {
+      // A smeared or weakly supported part is a stem only if silhouettes confirm it.
+      if (s.depth_smeared || s.weak_support) {
         ++dropped;
         continue;
       }

@@ -22,6 +22,9 @@ void StemOptions::Check() const {
   if (dbh_method != "tangent" && dbh_method != "slice" && dbh_method != "circle") {
     throw InputError(fmt::format("DBH method '{}' is not tangent, slice or circle", dbh_method));
   }
+  if (!(weak_support_share >= 0 && weak_support_share <= 1)) {
+    throw InputError("weak_support_share must be in [0, 1]");
+  }
 }
 
 nlohmann::json StemsResult::Summary() const {
@@ -345,13 +348,16 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     const double support_m2 =
         depth_focal_px > 0 ? slice.size() * c0.squaredNorm() / (depth_focal_px * depth_focal_px)
                            : o.min_slice_support_m2;
-    if (support_m2 < o.min_slice_support_m2) {
-      ++result.rejected_size;
-      spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: {} slice points", c0.x(), c0.y(),
-                    slice.size());
-      continue;
-    }
     Stem s;
+    if (support_m2 < o.min_slice_support_m2) {
+      if (support_m2 < o.weak_support_share * o.min_slice_support_m2) {
+        ++result.rejected_size;
+        spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: {} slice points", c0.x(), c0.y(),
+                      slice.size());
+        continue;
+      }
+      s.weak_support = true;
+    }
     double r = r0, rms = rms0;
     Eigen::Vector2d c = c0;
     if (!FitCircle(slice, &c, &r, &rms) || 2 * r > o.max_diameter_m) {

@@ -32,6 +32,8 @@ struct StemOptions {
   // distance, so a fixed count would favour near clutter and drop far stems; less than this is
   // too little surface for a stem (shrub twigs, noise).
   double min_slice_support_m2 = 0.075;
+  // Parts with at least this share of it are kept as weak_support, for silhouettes to confirm.
+  double weak_support_share = 0.25;
   double min_diameter_m = 0.05;
   double max_diameter_m = 1.2;
   double max_lean_deg = 15.0;
@@ -57,6 +59,9 @@ struct Stem {
   // The points were smeared along the line of sight (far stems): centre and width come from
   // their spread across it, and neither is a reliable check on the silhouettes.
   bool depth_smeared = false;
+  // Too little breast-height surface for its distance (a stem mostly behind shrubs, or clutter):
+  // a stem only if two-sided silhouettes confirm it.
+  bool weak_support = false;
   std::vector<std::string> flags;
 };
 

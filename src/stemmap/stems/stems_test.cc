@@ -87,6 +87,35 @@ TEST(Stems, TrunkMaskKeepsOtherSurfacesOut) {
   EXPECT_GE(r.vetoed_free_space, 1);  // the ghost's points are "trunk", its rays still veto it
 }
 
+// Breast-height support: a far trunk with too few slice points for its distance is kept only as
+// weak (for silhouettes to confirm), one with far fewer is dropped.
+TEST(Stems, ThinlySeenFarTrunksAreWeakOrDropped) {
+  Rng rng(5);
+  std::vector<dense::CloudPoint> cloud;
+  const Eigen::Vector3d origin(0, 0, 1.3);
+  auto add = [&](const Eigen::Vector3d& p) {
+    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+  };
+  for (int i = 0; i < kGroundPoints; ++i) {
+    add(Eigen::Vector3d(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01)));
+  }
+  // Front faces at 9 m: ~120 and ~40 points within the ±5 cm slice.
+  for (const auto& [bearing, n] : {std::pair{0.3, 3600}, std::pair{2.0, 1200}}) {
+    const Eigen::Vector2d c = 9.0 * Eigen::Vector2d(std::cos(bearing), std::sin(bearing));
+    for (int i = 0; i < n; ++i) {
+      const double a = bearing + M_PI + rng.Uniform(-1.2, 1.2);
+      add(Eigen::Vector3d(c.x() + 0.15 * std::cos(a), c.y() + 0.15 * std::sin(a),
+                          rng.Uniform(0, 3)));
+    }
+  }
+  const GroundGrid ground(cloud, 13, 0.5);
+  const StemsResult r = DetectStems(StemOptions(), cloud, ground, 500.0);
+  ASSERT_EQ(r.stems.size(), 1u);
+  EXPECT_TRUE(r.stems[0].weak_support);
+  EXPECT_NEAR(std::atan2(r.stems[0].centre_xy.y(), r.stems[0].centre_xy.x()), 0.3, 0.02);
+  EXPECT_GE(r.rejected_size, 1);
+}
+
 // A far trunk as stereo sees it: its front face smeared ±0.4 m along the line of sight. Its
 // circle fit means nothing; the width across the line of sight still gives bearing and size.
 TEST(Stems, SmearedFarTrunkIsKeptByItsWidthAcross) {
