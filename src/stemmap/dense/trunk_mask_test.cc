@@ -71,14 +71,23 @@ TEST(TrunkMask, BadModelsAndOptionsAreInputErrors) {
   auto model = MakeDnnMaskModel(PointwiseNet({{1, 0, 0}, {0, 1, 0}}), o, "test");
   EXPECT_THROW(model->Predict(RedLeftBlueRight()), InputError);
 
+  // The one-line errors name the file and say what is wrong with it.
+  auto load_error = [](const DnnMaskOptions& opt) -> std::string {
+    try {
+      LoadDnnMaskModel(opt);
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
   o = PlainInput();
   o.model = "/nonexistent/model.onnx";
-  EXPECT_THROW(LoadDnnMaskModel(o), InputError);
+  EXPECT_EQ(load_error(o), "mask model /nonexistent/model.onnx: no such file");
   const std::filesystem::path junk =
       std::filesystem::temp_directory_path() / "stemmap_trunk_mask_junk.onnx";
   std::ofstream(junk) << "not a network";
   o.model = junk;
-  EXPECT_THROW(LoadDnnMaskModel(o), InputError);
+  EXPECT_NE(load_error(o).find("OpenCV cannot read it"), std::string::npos);
   std::filesystem::remove(junk);
 
   o = PlainInput();
