@@ -115,20 +115,18 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     const double r0 = 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
     const stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
     // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
-    // neighbour): keep the cloud's estimate and say so.
-    // A stem partly hidden from the stereo pairs is wider than its points: silhouettes on both
-    // sides in several views that agree to about a pixel outrank them.
+    // neighbour): keep the cloud's estimate and say so. A stem partly hidden from the stereo
+    // pairs is wider than its points: silhouettes on both sides in several views that agree to
+    // about a pixel outrank them, and a part with little surface at breast height needs them.
     const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
     const double px_m = s.centre_xy.norm() / camera.fx;
-    const bool wider_two_sided =
-        f.two_sided_views >= 3 && f.radius_m > r0 && f.radius_m < 2.5 * r0 && f.rms_m < 1.2 * px_m;
-    // A part with little surface at breast height needs both silhouettes, agreeing to ~1 px.
-    const bool confirmed = !s.weak_support || (f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m);
+    const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
+    const bool wider_two_sided = two_sided && f.radius_m > r0 && f.radius_m < 2.5 * r0;
+    const bool confirmed = !s.weak_support || two_sided;
     const bool plausible = f.ok && confirmed && (s.depth_smeared || near_cloud || wider_two_sided);
     spdlog::debug(
         "tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {} two-sided {} of "
-        "{} "
-        "tried, rms {:.1f} mm",
+        "{} tried, rms {:.1f} mm",
         s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
         f.tried_views, 1000 * f.rms_m);
     if (!plausible) {

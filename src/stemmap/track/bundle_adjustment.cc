@@ -194,7 +194,10 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
   problem.AddResidualBlock(YawGaugeError::Create(), nullptr, map->centre_world[0].data());
 
   ceres::Solver::Options so;
-  so.linear_solver_type = ceres::SPARSE_SCHUR;
+  // The reduced camera system couples most keyframes (each sees a sixth of the turn, the loop ties
+  // the ends), so a dense factorisation beats the sparse one until it gets large.
+  so.linear_solver_type =
+      n_kf <= o.dense_schur_max_keyframes ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   so.num_threads = o.threads;
   so.max_num_iterations = o.max_iterations;
   so.function_tolerance = 1e-6;

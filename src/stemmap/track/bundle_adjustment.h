@@ -33,7 +33,8 @@ struct BundleOptions {
   int min_observations = 3;
   int max_points = 6000;
   int max_iterations = 40;
-  bool refine_focal = false;  // the closed loop makes the focal length observable
+  int dense_schur_max_keyframes = 400;  // beyond this the sparse Schur solver is used
+  bool refine_focal = false;            // the closed loop makes the focal length observable
   int threads = 2;
   void Check() const;
 };

@@ -85,6 +85,23 @@ TEST(BundleAdjustment, RecoversTheCircleFromAPerturbedStart) {
   EXPECT_LT(map.arm_from_cam.angularDistance(rig.truth.arm_from_cam) * 180 / M_PI, 0.1);
 }
 
+TEST(BundleAdjustment, DenseAndSparseSchurAgree) {
+  SyntheticRig rig(6);
+  SparseMap dense_map, sparse_map;
+  PlaceOnCircle(rig.phi, 1.0, &dense_map);
+  PlaceOnCircle(rig.phi, 1.0, &sparse_map);
+  BundleOptions o;
+  o.max_points = 800;
+  TriangulateTracks(o, rig.tracks, rig.camera, &dense_map);
+  TriangulateTracks(o, rig.tracks, rig.camera, &sparse_map);
+  RunBundleAdjustment(o, rig.tracks, rig.camera, &dense_map);
+  o.dense_schur_max_keyframes = 0;
+  RunBundleAdjustment(o, rig.tracks, rig.camera, &sparse_map);
+  for (size_t k = 0; k < rig.phi.size(); ++k) {
+    EXPECT_LT((dense_map.centre_world[k] - sparse_map.centre_world[k]).norm(), 1e-5);
+  }
+}
+
 TEST(BundleAdjustment, RejectsBadOptions) {
   BundleOptions o;
   o.arm_radius_m = 0.0;

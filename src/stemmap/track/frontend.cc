@@ -192,6 +192,13 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     }
     if (std::abs(rot) >= step_rad || n_common < tr.alive_at_kf / 2 || n_common < 40) {
       add_keyframe(fi, f->t_s);
+    } else {
+      FrameObservations& b = r.between.emplace_back();
+      b.frame = fi;
+      b.t_s = f->t_s;
+      b.track = tr.ids;
+      b.px.reserve(tr.pts.size());
+      for (const cv::Point2f& p : tr.pts) b.px.emplace_back(p.x, p.y);
     }
   }
   progress.Finish();
@@ -203,8 +210,25 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
   r.corrupt_packets = reader.corrupt_packets();
   r.tracked_frames = static_cast<int>(tracked_frames);
   r.mean_tracked_points = tracked_frames > 1 ? tracked_sum / (tracked_frames - 1) : 0.0;
-  for (std::vector<Observation>& obs : tr.tracks) {
-    if (obs.size() >= 2) r.tracks.push_back({std::move(obs)});
+  std::vector<int> kept(tr.tracks.size(), -1);
+  for (size_t t = 0; t < tr.tracks.size(); ++t) {
+    if (tr.tracks[t].size() < 2) continue;
+    kept[t] = static_cast<int>(r.tracks.size());
+    r.tracks.push_back({std::move(tr.tracks[t])});
+  }
+  for (FrameObservations& b : r.between) {
+    size_t k = 0;
+    for (size_t i = 0; i < b.track.size(); ++i) {
+      if (kept[b.track[i]] < 0) continue;
+      b.track[k] = kept[b.track[i]];
+      b.px[k++] = b.px[i];
+    }
+    b.track.resize(k);
+    b.px.resize(k);
+  }
+  // The last tracked frame may have become a keyframe after it was recorded here.
+  while (!r.between.empty() && r.between.back().frame >= r.keyframes.back().frame) {
+    r.between.pop_back();
   }
   return r;
 }

@@ -49,6 +49,15 @@ struct Keyframe {
   cv::Mat gray_full;  // full resolution, when kept and the reader returns it
 };
 
+// Where the tracked points lie in one tracked frame between keyframes: for refining its pose
+// against the adjusted map, so the trajectory follows the arm's wobble between keyframes.
+struct FrameObservations {
+  int frame = 0;  // index into FrontendResult::frame_t_s
+  double t_s = 0.0;
+  std::vector<int> track;           // index into FrontendResult::tracks
+  std::vector<Eigen::Vector2f> px;  // working-resolution pixel, one per track
+};
+
 struct FrontendResult {
   VideoInfo info;
   int corrupt_packets = 0;
@@ -57,7 +66,8 @@ struct FrontendResult {
   cv::Size working_size;
   std::vector<double> frame_t_s;  // every decoded frame
   std::vector<Keyframe> keyframes;
-  std::vector<Track> tracks;  // only tracks seen in two or more keyframes
+  std::vector<Track> tracks;               // only tracks seen in two or more keyframes
+  std::vector<FrameObservations> between;  // tracked frames that are not keyframes, in order
   double mean_tracked_points = 0.0;
   int reseeds_for_loss = 0;  // times the tracker lost most points and started over
 };

@@ -154,6 +154,11 @@ void MergeLoopTracks(const LoopOptions& o, FrontendResult& f, LoopResult& loop) 
     dst.insert(dst.end(), f.tracks[t].obs.begin(), f.tracks[t].obs.end());
     dst.insert(dst.end(), extra[t].begin(), extra[t].end());
   }
+  std::map<int, int> index_of_root;
+  for (const auto& [root, obs] : joined) index_of_root.emplace(root, index_of_root.size());
+  for (FrameObservations& b : f.between) {
+    for (int& t : b.track) t = index_of_root.at(Find(parent, t));
+  }
   std::vector<Track> out;
   out.reserve(joined.size());
   for (auto& [root, obs] : joined) {

@@ -9,6 +9,7 @@
 #include "stemmap/calib/calibrate.h"
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
+#include "stemmap/track/frame_poses.h"
 #include "stemmap/track/plot_frame.h"
 #include "stemmap/track/rotation.h"
 #include "stemmap/track/track_io.h"
@@ -56,24 +57,6 @@ double MeanOdometryLoopErrorDeg(const LoopResult& loop, const std::vector<double
   return sum / loop.pairs.size() / kDeg;
 }
 
-std::vector<StampedPose> InterpolateFrames(const std::vector<double>& frame_t_s,
-                                           const std::vector<StampedPose>& kf) {
-  std::vector<StampedPose> out(frame_t_s.size());
-  size_t k = 0;
-  for (size_t i = 0; i < frame_t_s.size(); ++i) {
-    const double t = frame_t_s[i];
-    while (k + 2 < kf.size() && kf[k + 1].t_s <= t) ++k;
-    const StampedPose &a = kf[k], &b = kf[std::min(k + 1, kf.size() - 1)];
-    double w = b.t_s > a.t_s ? (t - a.t_s) / (b.t_s - a.t_s) : 0.0;
-    w = std::clamp(w, 0.0, 1.0);
-    out[i].t_s = t;
-    out[i].world_from_cam.rotation = a.world_from_cam.rotation.slerp(w, b.world_from_cam.rotation);
-    out[i].world_from_cam.translation =
-        (1.0 - w) * a.world_from_cam.translation + w * b.world_from_cam.translation;
-  }
-  return out;
-}
-
 PinholeCamera WorkingCamera(const TrackOptions& o, const VideoInfo& info) {
   const int long_side = std::max(info.width, info.height);
   double s = 1.0;
@@ -98,8 +81,10 @@ void TrackOptions::Check() const {
     throw InputError(fmt::format("focal mode '{}' is not auto, fixed or refine", focal));
   }
   if (bundle_rounds < 1) throw InputError("at least one bundle adjustment round is needed");
+  if (first_round_iterations < 1) throw InputError("the first bundle round needs an iteration");
   frontend.Check();
   loop.Check();
+  frames.Check();
   BundleOptions b = bundle;
   b.arm_radius_m = arm_radius_m;
   b.Check();
@@ -176,7 +161,12 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   BundleSummary bs;
   for (int round = 0; round < o.bundle_rounds; ++round) {
     const int made = TriangulateTracks(bo, f.tracks, r.camera, &map);
-    bs = RunBundleAdjustment(bo, f.tracks, r.camera, &map);
+    // The first round only has to get close: its outliers go before the last rounds finish.
+    BundleOptions round_options = bo;
+    if (round == 0 && o.bundle_rounds > 1) {
+      round_options.max_iterations = std::min(bo.max_iterations, o.first_round_iterations);
+    }
+    bs = RunBundleAdjustment(round_options, f.tracks, r.camera, &map);
     spdlog::info("track: bundle adjustment {}/{}: {} (+{} points)", round + 1, o.bundle_rounds,
                  bs.BriefReport(), made);
     rounds.push_back(bs.BriefReport());
@@ -186,6 +176,19 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   r.camera.fx *= map.focal_scale;
   r.camera.fy *= map.focal_scale;
   map.focal_scale = 1.0;
+  std::vector<StampedPose> keyframes_axis;
+  for (size_t k = 0; k < map.centre_world.size(); ++k) {
+    keyframes_axis.push_back(
+        {f.keyframes[k].t_s, {map.cam_from_world[k].conjugate(), map.centre_world[k]}});
+  }
+  FramePoseSummary fs;
+  const std::vector<StampedPose> between_axis =
+      RefineFramePoses(o.frames, bo, f.between, keyframes_axis, map, r.camera, &fs);
+  spdlog::info(
+      "track: {} frames between keyframes resected ({} interpolated), {:.3f}° from "
+      "interpolation, rms {:.2f} px",
+      fs.refined, fs.interpolated, fs.mean_change_deg, fs.mean_rms_px);
+  timing["frame_poses_s"] = clock.Lap();
 
   // Plot frame: up along the axis, origin on the ground below it.
   std::vector<Eigen::Vector3d> pts_axis;
@@ -215,7 +218,13 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
     r.keyframe_gray_full.push_back(f.keyframes[k].gray_full);
   }
   for (const Eigen::Vector3d& p : pts_axis) r.points_plot.push_back(r.plot_from_axis * p);
-  r.frames = InterpolateFrames(f.frame_t_s, r.keyframes);
+  std::vector<StampedPose> stamped = r.keyframes;
+  for (const StampedPose& p : between_axis) {
+    stamped.push_back({p.t_s, r.plot_from_axis * p.world_from_cam});
+  }
+  std::stable_sort(stamped.begin(), stamped.end(),
+                   [](const StampedPose& a, const StampedPose& b) { return a.t_s < b.t_s; });
+  r.frames = InterpolatePoses(f.frame_t_s, stamped);
 
   double r_fit = 0.0;
   for (const Eigen::Vector3d& c : map.centre_world) r_fit += c.head<2>().norm();
@@ -246,6 +255,9 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   s["loop_closed"] = !loop.pairs.empty() && s["loop_error_after_deg"].get<double>() < 0.2;
   s["bundle_adjustment"] = rounds;
   s["reprojection_rms_px"] = bs.final_rms_px;
+  s["frames_resected"] = fs.refined;
+  s["frames_interpolated"] = fs.interpolated;
+  s["frame_resection_rms_px"] = fs.mean_rms_px;
   s["points"] = pts_axis.size();
   s["arm_radius_m"] = o.arm_radius_m;
   s["circle_fit_radius_m"] = r_fit;

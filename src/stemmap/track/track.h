@@ -8,6 +8,7 @@
 #include "stemmap/camera/camera.h"
 #include "stemmap/core/pose.h"
 #include "stemmap/track/bundle_adjustment.h"
+#include "stemmap/track/frame_poses.h"
 #include "stemmap/track/frontend.h"
 #include "stemmap/track/loop_closure.h"
 #include "stemmap/track/vertical.h"
@@ -31,10 +32,12 @@ struct TrackOptions {
   double min_turn_deg = 355.0;  // less than this is not a full turn
   double max_dark_share = 0.5;  // more dark frames than this: too dark
   int bundle_rounds = 3;
+  int first_round_iterations = 12;  // of several rounds; it only has to get close
   FrontendOptions frontend;
   LoopOptions loop;
   VerticalOptions vertical;
   BundleOptions bundle;
+  FramePoseOptions frames;
   void Check() const;
 };
 

@@ -37,6 +37,7 @@ nlohmann::json ToJson(const TrackOptions& o) {
           {"min_turn_deg", o.min_turn_deg},
           {"max_dark_share", o.max_dark_share},
           {"bundle_rounds", o.bundle_rounds},
+          {"first_round_iterations", o.first_round_iterations},
           {"frontend",
            {{"working_long_side_px", f.working_long_side_px},
             {"track_fps", f.track_fps},
@@ -56,7 +57,13 @@ nlohmann::json ToJson(const TrackOptions& o) {
             {"outlier_px", b.outlier_px},
             {"max_points", b.max_points},
             {"max_iterations", b.max_iterations},
-            {"threads", b.threads}}}};
+            {"dense_schur_max_keyframes", b.dense_schur_max_keyframes},
+            {"threads", b.threads}}},
+          {"frames",
+           {{"enabled", o.frames.enabled},
+            {"min_points", o.frames.min_points},
+            {"inlier_px", o.frames.inlier_px},
+            {"max_change_deg", o.frames.max_change_deg}}}};
 }
 
 }  // namespace stemmap::track
