@@ -130,8 +130,9 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
         s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
         f.tried_views, 1000 * f.rms_m);
     if (!plausible) {
-      // A smeared or weakly supported part is a stem only if silhouettes confirm it.
-      if (s.depth_smeared || s.weak_support) {
+      // A smeared or weakly supported part is a stem only if silhouettes confirm it; so is
+      // every part when silhouettes are required.
+      if (o.require_silhouette || s.depth_smeared || s.weak_support) {
         ++dropped;
         continue;
       }
@@ -160,10 +161,8 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     }
     kept.push_back(s);
   }
-  spdlog::info(
-      "stems: tangent rays fitted {} of {} stems; {} smeared parts without silhouettes "
-      "dropped",
-      fitted, stems->size(), dropped);
+  spdlog::info("stems: tangent rays fitted {} of {} stems; {} parts without silhouettes dropped",
+               fitted, stems->size(), dropped);
   *stems = std::move(kept);
 }
 
@@ -225,6 +224,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"min_dbh_cm", o.min_dbh_cm},
        {"breast_height_m", o.stems.breast_height_m},
        {"dbh_method", o.stems.dbh_method},
+       {"require_silhouette", o.require_silhouette},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
        {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});
   WriteJsonAtomic(out_dir / "summary.json", s);

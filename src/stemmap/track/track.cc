@@ -81,7 +81,6 @@ void TrackOptions::Check() const {
     throw InputError(fmt::format("focal mode '{}' is not auto, fixed or refine", focal));
   }
   if (bundle_rounds < 1) throw InputError("at least one bundle adjustment round is needed");
-  if (first_round_iterations < 1) throw InputError("the first bundle round needs an iteration");
   frontend.Check();
   loop.Check();
   frames.Check();
@@ -161,12 +160,7 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   BundleSummary bs;
   for (int round = 0; round < o.bundle_rounds; ++round) {
     const int made = TriangulateTracks(bo, f.tracks, r.camera, &map);
-    // The first round only has to get close: its outliers go before the last rounds finish.
-    BundleOptions round_options = bo;
-    if (round == 0 && o.bundle_rounds > 1) {
-      round_options.max_iterations = std::min(bo.max_iterations, o.first_round_iterations);
-    }
-    bs = RunBundleAdjustment(round_options, f.tracks, r.camera, &map);
+    bs = RunBundleAdjustment(bo, f.tracks, r.camera, &map);
     spdlog::info("track: bundle adjustment {}/{}: {} (+{} points)", round + 1, o.bundle_rounds,
                  bs.BriefReport(), made);
     rounds.push_back(bs.BriefReport());

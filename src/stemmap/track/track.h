@@ -32,7 +32,6 @@ struct TrackOptions {
   double min_turn_deg = 355.0;  // less than this is not a full turn
   double max_dark_share = 0.5;  // more dark frames than this: too dark
   int bundle_rounds = 3;
-  int first_round_iterations = 12;  // of several rounds; it only has to get close
   FrontendOptions frontend;
   LoopOptions loop;
   VerticalOptions vertical;

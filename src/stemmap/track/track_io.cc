@@ -37,7 +37,6 @@ nlohmann::json ToJson(const TrackOptions& o) {
           {"min_turn_deg", o.min_turn_deg},
           {"max_dark_share", o.max_dark_share},
           {"bundle_rounds", o.bundle_rounds},
-          {"first_round_iterations", o.first_round_iterations},
           {"frontend",
            {{"working_long_side_px", f.working_long_side_px},
             {"track_fps", f.track_fps},
