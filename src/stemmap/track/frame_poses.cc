@@ -75,12 +75,13 @@ Resected Resect(const FramePoseOptions& o, const BundleOptions& bo, const FrameO
   po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   ceres::EigenQuaternionManifold quaternion_manifold;
-  ceres::LossFunction* loss = new ceres::HuberLoss(bo.loss_px);
   for (size_t i = 0; i < b.track.size(); ++i) {
     const int t = b.track[i];
     if (map.point_valid[t]) points.push_back(map.point_world[t]);
   }
   if (static_cast<int>(points.size()) < o.min_points) return r;
+  // Created only now: the problem owns a loss once a residual uses it.
+  ceres::LossFunction* loss = new ceres::HuberLoss(bo.loss_px);
   size_t j = 0;
   for (size_t i = 0; i < b.track.size(); ++i) {
     if (!map.point_valid[b.track[i]]) continue;
