@@ -16,6 +16,8 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kFieldTexelM = 0.15;
+constexpr double kWallTexelM = 0.05;
+constexpr double kWallTopM = 30.0;
 
 double SmoothStep(double e0, double e1, double x) {
   const double t = std::clamp((x - e0) / (e1 - e0), 0.0, 1.0);
@@ -52,6 +54,7 @@ Renderer::Renderer(const Scene& scene, const PinholeCamera& camera, const Render
     }
   }
   BuildShadowMap();
+  BuildFieldTables(-shadow_origin_x_);  // the shadow map's square, which covers the scene
 }
 
 void Renderer::BuildShadowMap() {
@@ -65,19 +68,6 @@ void Renderer::BuildShadowMap() {
   shadow_origin_x_ = -half;
   shadow_origin_y_ = -half;
   shadow_depth_ = cv::Mat(n, n, CV_32F, cv::Scalar(1e9));
-  // The crowns' openings, tabulated: their finest octave (0.75 m) is five texels.
-  auto tabulate = [&](const ValueNoise& noise, FieldTable* table) {
-    const int nf = static_cast<int>(std::ceil(2.0 * half / kFieldTexelM)) + 2;
-    *table = {-half, -half, kFieldTexelM, cv::Mat(nf, nf, CV_32F)};
-    for (int i = 0; i < nf; ++i) {
-      float* row = table->values.ptr<float>(i);
-      for (int j = 0; j < nf; ++j) {
-        row[j] = static_cast<float>(
-            noise.Fbm2((-half + j * kFieldTexelM) / 3.0, (-half + i * kFieldTexelM) / 3.0, 3));
-      }
-    }
-  };
-  tabulate(canopy_noise_, &fleck_);
   const Eigen::Vector3d down = -s;
   for (const SceneTree& tree : scene_.trees) {
     const Stem& stem = tree.stem;
@@ -108,6 +98,39 @@ void Renderer::BuildShadowMap() {
       }
     }
   }
+}
+
+template <typename F>
+Renderer::FieldTable Renderer::FieldTable::Tabulate(double x0, double y0, double texel, int nx,
+                                                    int ny, F&& f) {
+  FieldTable table{x0, y0, texel, cv::Mat(ny, nx, CV_32F)};
+  for (int i = 0; i < ny; ++i) {
+    float* row = table.values.ptr<float>(i);
+    for (int j = 0; j < nx; ++j) row[j] = static_cast<float>(f(x0 + j * texel, y0 + i * texel));
+  }
+  return table;
+}
+
+void Renderer::BuildFieldTables(double half) {
+  // Fields whose finest octave spans five texels or more, so that reading them bilinearly
+  // changes nothing visible.
+  const int nf = static_cast<int>(std::ceil(2.0 * half / kFieldTexelM)) + 2;
+  fleck_ = FieldTable::Tabulate(-half, -half, kFieldTexelM, nf, nf, [&](double x, double y) {
+    return canopy_noise_.Fbm2(x / 3.0, y / 3.0, 3);
+  });
+  ground_patch_ = FieldTable::Tabulate(-half, -half, kFieldTexelM, nf, nf, [&](double x, double y) {
+    return ground_noise_.Fbm2(x / 3.0, y / 3.0, 3);
+  });
+  const double u0 = -std::numbers::pi * wall_radius_m_ - kWallTexelM;
+  const int nu =
+      static_cast<int>(std::ceil(2.0 * std::numbers::pi * wall_radius_m_ / kWallTexelM)) + 4;
+  wall_crown_line_ = FieldTable::Tabulate(u0, 0.0, kWallTexelM, nu, 2, [&](double u, double) {
+    return wall_noise_.Fbm2(u / 8.0, 0.3, 3);
+  });
+  const int nz = static_cast<int>(std::ceil((kWallTopM + 2.0) / kWallTexelM)) + 2;
+  wall_opening_ = FieldTable::Tabulate(u0, -2.0, kWallTexelM, nu, nz, [&](double u, double z) {
+    return wall_noise_.Fbm2(u / 5.0, z / 3.0, 3);
+  });
 }
 
 bool Renderer::FieldTable::Read(double x, double y, double* v) const {
@@ -179,8 +202,10 @@ Eigen::Vector3f Renderer::Wall(const Eigen::Vector3d& p, const Eigen::Vector3d& 
   const double z = p.z() - scene_.ground.Height(p.x(), p.y());
   const double u = phi * wall_radius_m_;  // metres along the wall
   const Eigen::Vector3f shade = scene_.light.sky_rgb;
-  const double crown_line = 4.0 + 3.0 * wall_noise_.Fbm2(u / 8.0, 0.3, 3);
-  const double opening = wall_noise_.Fbm2(u / 5.0, z / 3.0, 3);
+  double crown_noise, opening;
+  if (!wall_crown_line_.Read(u, 0.0, &crown_noise)) crown_noise = wall_noise_.Fbm2(u / 8.0, 0.3, 3);
+  if (!wall_opening_.Read(u, z, &opening)) opening = wall_noise_.Fbm2(u / 5.0, z / 3.0, 3);
+  const double crown_line = 4.0 + 3.0 * crown_noise;
   if (z > crown_line) {
     if (opening > 0.32 - 0.02 * (z - crown_line)) return Sky(d);
     return Eigen::Vector3f(0.04f, 0.07f, 0.03f).cwiseProduct(shade) * 1.4f;
@@ -201,7 +226,8 @@ Eigen::Vector3f Renderer::Wall(const Eigen::Vector3d& p, const Eigen::Vector3d& 
 Eigen::Vector3f Renderer::GroundAlbedo(double x, double y) const {
   const ValueNoise& nz = ground_noise_;
   const bool natural = scene_.kind == StandKind::kNatural;
-  const double patch = nz.Fbm2(x / 3.0, y / 3.0, 3);
+  double patch;
+  if (!ground_patch_.Read(x, y, &patch)) patch = nz.Fbm2(x / 3.0, y / 3.0, 3);
   const Eigen::Vector3f litter =
       natural ? Eigen::Vector3f(0.20f, 0.16f, 0.10f) : Eigen::Vector3f(0.24f, 0.18f, 0.11f);
   const Eigen::Vector3f green(0.11f, 0.19f, 0.06f);

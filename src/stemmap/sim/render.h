@@ -66,13 +66,21 @@ class Renderer {
   // Sun shadow map: distance from the canopy plane along -sun to the first trunk.
   cv::Mat shadow_depth_;
   double shadow_origin_x_ = 0.0, shadow_origin_y_ = 0.0;
-  // A smooth field tabulated on a square grid and read bilinearly; Read() is false outside it.
+  // A smooth field tabulated on a grid of square texels and read bilinearly; Read() is false
+  // outside it, where the caller evaluates the field itself.
   struct FieldTable {
     double origin_x = 0.0, origin_y = 0.0, texel = 1.0;
-    cv::Mat values;  // CV_32F
+    cv::Mat values;  // CV_32F, rows along y
+    template <typename F>
+    static FieldTable Tabulate(double x0, double y0, double texel, int nx, int ny, F&& f);
     bool Read(double x, double y, double* v) const;
   };
-  FieldTable fleck_;  // the crowns' openings, on the crown plane
+  void BuildFieldTables(double half_extent_m);
+  FieldTable fleck_;         // the crowns' openings, on the crown plane
+  FieldTable ground_patch_;  // litter against green patches, on the ground plane
+  // The distant forest, unrolled: u = metres along the wall, z = height above the ground.
+  FieldTable wall_crown_line_;  // along u only
+  FieldTable wall_opening_;
   double wall_radius_m_ = 45.0;
   ValueNoise ground_noise_, canopy_noise_, wall_noise_, leaf_noise_;
 };

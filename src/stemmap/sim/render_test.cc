@@ -43,6 +43,21 @@ TEST(Renderer, StemAppearsWhereTheCameraModelPutsIt) {
   EXPECT_NEAR(near, 2.0 * half_px, 2.0);
   EXPECT_NEAR(a.depth_m.at<float>(v, static_cast<int>(cam.cx)), 4.0 - r_stem, 0.01);
 
+  // Antialiasing touches one pixel per stem side and row: the one whose footprint holds the side.
+  RenderOptions no_aa;
+  no_aa.antialias = false;
+  const RenderBuffers c = Renderer(scene, cam, no_aa).Render(world_from_cam);
+  int changed = 0;
+  for (int u = 0; u < cam.width; ++u) {
+    if (cv::norm(a.radiance.at<cv::Vec3f>(v, u) - c.radiance.at<cv::Vec3f>(v, u)) == 0) continue;
+    ++changed;
+    const double side_px =
+        std::min(std::abs(u - (cam.cx - half_px)), std::abs(u - (cam.cx + half_px)));
+    EXPECT_LE(side_px, 1.0) << "column " << u;
+  }
+  EXPECT_GE(changed, 1);
+  EXPECT_LE(changed, 2);
+
   SensorModel sensor(SensorParams{}, cam);
   const cv::Mat bgr = sensor.Capture(a, 0.15, 1.0, 0, 1.0 / 30);
   EXPECT_EQ(bgr.type(), CV_8UC3);

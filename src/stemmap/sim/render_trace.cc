@@ -236,42 +236,51 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
   }
   if (!options_.antialias || options_.edge_samples == 0) return out;
 
-  // Edge pixels (object changes or depth jumps) get extra samples on a rotated grid.
+  // Pixels a stem side crosses get extra samples on a rotated grid.
+  // A stem side between pixel centres u and u + 1 lies in the footprint of one of the two: a ray
+  // through their common border (u + 0.5) tells which, and only that pixel is supersampled.
+  auto is_stem = [](int id) { return id >= kObjTree && id < kObjShrub; };
+  cv::Mat needs_samples(h, w, CV_8U, cv::Scalar(0));
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int v = 0; v < h; ++v) {
+    const int* id = ids.ptr<int>(v);
+    const float* dep = out.depth_m.ptr<float>(v);
+    uchar* mark = needs_samples.ptr<uchar>(v);
+    for (int u = 0; u + 1 < w; ++u) {
+      // Only stem sides need sub-pixel accuracy: a diameter is read across a stem. Leaves,
+      // ground and sky edges, and foliage in front of a stem, do not.
+      const int a = id[u], b = id[u + 1];
+      if (!(is_stem(a) || is_stem(b)) || a == kObjCanopy || b == kObjCanopy) continue;
+      if (a == b && std::abs(dep[u + 1] - dep[u]) <= 0.04f * std::min(dep[u], dep[u + 1])) {
+        continue;
+      }
+      const Eigen::Vector3d rc = camera_.CamRayFromImage({u + 0.5, static_cast<double>(v)});
+      const Sample mid = Trace(o, rot * rc.normalized(), columns[u]);
+      const float mid_depth = mid.t * static_cast<float>(rc.normalized().z());
+      const bool like_a =
+          mid.object == a && std::abs(mid_depth - dep[u]) <= 0.04f * std::min(mid_depth, dep[u]);
+      mark[like_a ? u + 1 : u] = 1;
+    }
+  }
   static const double kOffsets[16][2] = {
       {-0.125, -0.375}, {0.375, -0.125}, {0.125, 0.375}, {-0.375, 0.125},
       {-0.3, -0.1},     {0.1, -0.3},     {0.3, 0.1},     {-0.1, 0.3},
       {-0.45, -0.45},   {0.45, -0.45},   {0.45, 0.45},   {-0.45, 0.45},
       {0.0, -0.45},     {0.45, 0.0},     {0.0, 0.45},    {-0.45, 0.0}};
-  const cv::Mat depth0 = out.depth_m.clone();
 #pragma omp parallel for schedule(dynamic, 4)
   for (int v = 0; v < h; ++v) {
+    const uchar* mark = needs_samples.ptr<uchar>(v);
+    auto* rad = out.radiance.ptr<cv::Vec3f>(v);
     for (int u = 0; u < w; ++u) {
-      const int id0 = ids.at<int>(v, u);
-      const float d0 = depth0.at<float>(v, u);
-      // Only stem silhouettes need sub-pixel accuracy; leaves, ground and sky edges do not.
-      bool edge = false;
-      for (const auto& [du, dv] : {std::pair{1, 0}, {-1, 0}, {0, 1}, {0, -1}}) {
-        const int uu = u + du, vv = v + dv;
-        if (uu < 0 || vv < 0 || uu >= w || vv >= h) continue;
-        const int id1 = ids.at<int>(vv, uu);
-        const bool stem0 = id0 >= kObjTree && id0 < kObjShrub;
-        const bool stem1 = id1 >= kObjTree && id1 < kObjShrub;
-        if ((stem0 || stem1) &&
-            (id1 != id0 || std::abs(depth0.at<float>(vv, uu) - d0) >
-                               0.04f * std::min(d0, depth0.at<float>(vv, uu)))) {
-          edge = true;
-          break;
-        }
-      }
-      if (!edge) continue;
-      cv::Vec3f sum = out.radiance.at<cv::Vec3f>(v, u);
+      if (!mark[u]) continue;
+      cv::Vec3f sum = rad[u];
       for (int k = 0; k < options_.edge_samples; ++k) {
         const Eigen::Vector3d rc =
             camera_.CamRayFromImage({u + kOffsets[k][0], v + kOffsets[k][1]}).normalized();
         const Sample s = Trace(o, rot * rc, columns[u]);
         sum += cv::Vec3f(s.rgb.x(), s.rgb.y(), s.rgb.z());
       }
-      out.radiance.at<cv::Vec3f>(v, u) = sum / static_cast<float>(options_.edge_samples + 1);
+      rad[u] = sum / static_cast<float>(options_.edge_samples + 1);
     }
   }
   return out;
