@@ -87,6 +87,25 @@ std::string ProcessResult::Table() const {
   return s;
 }
 
+SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& s,
+                                     const stems::TangentFit& f, double px_m) {
+  // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
+  // neighbour): keep the cloud's estimate and say so. A stem partly hidden from the stereo
+  // pairs is wider than its points: silhouettes on both sides in several views that agree to
+  // about a pixel outrank them, and a part with little surface at breast height needs them.
+  const double r0 = 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
+  const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
+  const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
+  const bool wider_two_sided = two_sided && f.radius_m > r0 && f.radius_m < 2.5 * r0;
+  const bool confirmed = !s.weak_support || two_sided;
+  const bool plausible = f.ok && confirmed && (s.depth_smeared || near_cloud || wider_two_sided);
+  if (plausible) return SilhouetteVerdict::kUse;
+  // A smeared or weakly supported part is a stem only if silhouettes confirm it; so is every
+  // part when silhouettes are required.
+  if (o.require_silhouette || s.depth_smeared || s.weak_support) return SilhouetteVerdict::kDrop;
+  return SilhouetteVerdict::kKeepCloud;
+}
+
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
                            const std::vector<cv::Mat>& bgr, std::vector<stems::Stem>* stems) {
   // Silhouettes at the video's own resolution where the front end kept it, else the working one.
@@ -114,28 +133,18 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
     const double r0 = 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
     const stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
-    // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
-    // neighbour): keep the cloud's estimate and say so. A stem partly hidden from the stereo
-    // pairs is wider than its points: silhouettes on both sides in several views that agree to
-    // about a pixel outrank them, and a part with little surface at breast height needs them.
-    const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
     const double px_m = s.centre_xy.norm() / camera.fx;
-    const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
-    const bool wider_two_sided = two_sided && f.radius_m > r0 && f.radius_m < 2.5 * r0;
-    const bool confirmed = !s.weak_support || two_sided;
-    const bool plausible = f.ok && confirmed && (s.depth_smeared || near_cloud || wider_two_sided);
     spdlog::debug(
         "tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {} two-sided {} of "
         "{} tried, rms {:.1f} mm",
         s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
         f.tried_views, 1000 * f.rms_m);
-    if (!plausible) {
-      // A smeared or weakly supported part is a stem only if silhouettes confirm it; so is
-      // every part when silhouettes are required.
-      if (o.require_silhouette || s.depth_smeared || s.weak_support) {
-        ++dropped;
-        continue;
-      }
+    const SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m);
+    if (verdict == SilhouetteVerdict::kDrop) {
+      ++dropped;
+      continue;
+    }
+    if (verdict == SilhouetteVerdict::kKeepCloud) {
       if (o.stems.dbh_method == "tangent") s.flags.push_back("no_silhouette");
       kept.push_back(s);
       continue;

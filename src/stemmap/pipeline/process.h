@@ -48,6 +48,16 @@ struct ProcessResult {
 ProcessResult RunProcess(const ProcessOptions& options, const std::filesystem::path& video,
                          const std::filesystem::path& out_dir);
 
+// What a silhouette fit does to a stem found in the cloud.
+enum class SilhouetteVerdict {
+  kUse,        // plausible: the fit places the stem (and gives the DBH with the tangent method)
+  kKeepCloud,  // implausible: the cloud's estimate stays, flagged no_silhouette
+  kDrop,       // implausible for a part that needed confirming: not a stem
+};
+// `px_m` is one pixel's footprint at the stem's distance.
+SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& stem,
+                                     const stems::TangentFit& fit, double px_m);
+
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
 // method it also gives the DBH.
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
 
 namespace stemmap::track {
@@ -99,6 +100,19 @@ TEST(FramePoses, InterpolationHoldsBeyondTheEnds) {
   EXPECT_NEAR(out[0].world_from_cam.translation.x(), 0.0, 1e-12);
   EXPECT_NEAR(out[1].world_from_cam.translation.x(), 0.5, 1e-12);
   EXPECT_NEAR(out[2].world_from_cam.translation.x(), 2.0, 1e-12);
+}
+
+TEST(FramePoses, OptionsRejectBadValues) {
+  EXPECT_NO_THROW(FramePoseOptions{}.Check());
+  FramePoseOptions few;
+  few.min_points = 5;
+  EXPECT_THROW(few.Check(), InputError);
+  FramePoseOptions loose;
+  loose.inlier_px = 0.0;
+  EXPECT_THROW(loose.Check(), InputError);
+  FramePoseOptions jump;
+  jump.max_change_deg = -1.0;
+  EXPECT_THROW(jump.Check(), InputError);
 }
 
 }  // namespace

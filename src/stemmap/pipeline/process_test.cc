@@ -1,0 +1,65 @@
+#include "stemmap/pipeline/process.h"
+
+#include <gtest/gtest.h>
+
+namespace stemmap::pipeline {
+namespace {
+
+// A 30 cm stem 5 m away as the cloud saw it, and a silhouette fit that agrees to a few mm in
+// five views with both sides.
+struct Case {
+  stems::Stem stem;
+  stems::TangentFit fit;
+  double px_m = 5.0 / 1400.0;
+  Case() {
+    stem.centre_xy = {5.0, 0.0};
+    stem.dbh_slice_m = 0.30;
+    fit.ok = true;
+    fit.centre = stem.centre_xy;
+    fit.radius_m = 0.152;
+    fit.rms_m = 0.002;
+    fit.views = fit.tried_views = fit.two_sided_views = 5;
+  }
+};
+
+TEST(JudgeSilhouetteFit, UsesAFitThatAgreesWithTheCloud) {
+  const Case c;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+}
+
+TEST(JudgeSilhouetteFit, KeepsTheCloudWhenTheFitLockedOntoSomethingElse) {
+  Case c;
+  c.fit.radius_m = 0.06;  // far narrower than the points: a furrow or a neighbour's edge
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.fit.ok = false;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
+TEST(JudgeSilhouetteFit, RequiringSilhouettesDropsWhatNoneConfirms) {
+  Case c;
+  c.fit.ok = false;
+  ProcessOptions o;
+  o.require_silhouette = true;
+  EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+  c.fit.ok = true;  // a confirmed stem stays, required or not
+  EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+}
+
+TEST(JudgeSilhouetteFit, AWeaklySupportedPartNeedsBothSidesInSeveralViews) {
+  Case c;
+  c.stem.weak_support = true;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.two_sided_views = 2;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+}
+
+TEST(JudgeSilhouetteFit, WiderTwoSidedSilhouettesOutrankTheCloud) {
+  Case c;
+  c.fit.radius_m = 0.25;  // the cloud saw part of a half-hidden stem
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.rms_m = 0.02;  // the same width from sides that disagree by several pixels: not trusted
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
+}  // namespace
+}  // namespace stemmap::pipeline
