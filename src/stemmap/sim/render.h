@@ -10,8 +10,8 @@
 namespace stemmap::sim {
 
 struct RenderOptions {
-  bool antialias = true;  // extra samples on pixels at object or depth edges
-  int edge_samples = 4;   // samples added to each edge pixel
+  bool antialias = true;  // extra samples where a stem's side crosses a pixel
+  int edge_samples = 4;   // samples added to each such pixel
   double shadow_texel_m = 0.05;
   void Check() const;
 };

@@ -236,9 +236,9 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
   }
   if (!options_.antialias || options_.edge_samples == 0) return out;
 
-  // Pixels a stem side crosses get extra samples on a rotated grid.
   // A stem side between pixel centres u and u + 1 lies in the footprint of one of the two: a ray
-  // through their common border (u + 0.5) tells which, and only that pixel is supersampled.
+  // through their common border (u + 0.5) tells which, and only that pixel gets extra samples
+  // (on a rotated grid).
   auto is_stem = [](int id) { return id >= kObjTree && id < kObjShrub; };
   cv::Mat needs_samples(h, w, CV_8U, cv::Scalar(0));
 #pragma omp parallel for schedule(dynamic, 4)
@@ -254,9 +254,10 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
       if (a == b && std::abs(dep[u + 1] - dep[u]) <= 0.04f * std::min(dep[u], dep[u + 1])) {
         continue;
       }
-      const Eigen::Vector3d rc = camera_.CamRayFromImage({u + 0.5, static_cast<double>(v)});
-      const Sample mid = Trace(o, rot * rc.normalized(), columns[u]);
-      const float mid_depth = mid.t * static_cast<float>(rc.normalized().z());
+      const Eigen::Vector3d rc =
+          camera_.CamRayFromImage({u + 0.5, static_cast<double>(v)}).normalized();
+      const Sample mid = Trace(o, rot * rc, columns[u]);
+      const float mid_depth = mid.t * static_cast<float>(rc.z());
       const bool like_a =
           mid.object == a && std::abs(mid_depth - dep[u]) <= 0.04f * std::min(mid_depth, dep[u]);
       mark[like_a ? u + 1 : u] = 1;
