@@ -40,6 +40,8 @@ void AddSimulateCommand(CLI::App& app) {
                   "Plot id in the layout's id/plot column (default: the first)");
   sub->add_option("--stills", opt->stills, "PNG frames to write to OUT/stills")
       ->capture_default_str();
+  sub->add_flag("--truth-only", opt->truth_only,
+                "Write truth.json and trajectory_truth.tum without rendering the video");
   sub->callback([sub, opt, kind] {
     ApplyLogLevel(*sub);
     opt->kind = sim::ParseStandKind(*kind);

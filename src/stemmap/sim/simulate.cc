@@ -64,7 +64,8 @@ void to_json(nlohmann::json& j, const SimulateOptions& o) {
        {"bitrate_mbps", o.bitrate_mbps},
        {"layout_csv", o.layout_csv.string()},
        {"layout_plot", o.layout_plot},
-       {"stills", o.stills}};
+       {"stills", o.stills},
+       {"truth_only", o.truth_only}};
 }
 
 SimulateSummary RunSimulate(const SimulateOptions& o) {
@@ -110,6 +111,19 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
   std::vector<StampedPose> poses;
   for (const RigFrame& f : frames) poses.push_back({f.t_s, f.world_from_cam});
   WriteTumTrajectory(o.out_dir / "trajectory_truth.tum", poses);
+  SimulateSummary summary;
+  summary.frames = static_cast<int>(frames.size());
+  summary.seconds = frames.size() / o.fps;
+  for (const SceneTree& t : scene.trees) {
+    if (t.sapling) continue;
+    ++summary.all_trees;
+    if (t.stem.AxisPoint(t.stem.params().s_bh_m).head<2>().norm() <= 10.0) ++summary.plot_trees;
+  }
+  if (o.truth_only) {
+    summary.wall_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return summary;
+  }
 
   VideoWriterOptions vw;
   vw.width = o.width;
@@ -142,15 +156,6 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
   }
   progress.Finish();
   writer.Close();
-
-  SimulateSummary summary;
-  summary.frames = static_cast<int>(frames.size());
-  summary.seconds = frames.size() / o.fps;
-  for (const SceneTree& t : scene.trees) {
-    if (t.sapling) continue;
-    ++summary.all_trees;
-    if (t.stem.AxisPoint(t.stem.params().s_bh_m).head<2>().norm() <= 10.0) ++summary.plot_trees;
-  }
   summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return summary;
 }

@@ -26,6 +26,7 @@ struct SimulateOptions {
   std::filesystem::path layout_csv;
   std::string layout_plot;  // plot id inside the layout (default: the first)
   int stills = 3;           // PNG frames written to out_dir/stills
+  bool truth_only = false;  // write the truth and trajectory, render nothing
   void Check() const;
 };
 

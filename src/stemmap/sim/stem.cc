@@ -243,7 +243,7 @@ Eigen::Vector3f Stem::Albedo(double u, double s, double relief) const {
   return rgb;
 }
 
-Stem::Section Stem::MeasureSection(double s) const {
+Stem::Section Stem::MeasureSection(double s, const Eigen::Vector2d& view_xy) const {
   constexpr int kSamples = 2880;
   std::vector<Eigen::Vector2d> pts(kSamples);
   for (int k = 0; k < kSamples; ++k) {
@@ -266,7 +266,7 @@ Stem::Section Stem::MeasureSection(double s) const {
     while (hull.size() >= 2 && cross(hull[hull.size() - 2], hull.back(), p) <= 0) hull.pop_back();
     hull.push_back(p);
   }
-  Section out{0.0, 0.0, 1e9};
+  Section out{0.0, 0.0, 1e9, 0.0};
   for (size_t i = 0; i + 1 < hull.size(); ++i) out.girth_m += (hull[i + 1] - hull[i]).norm();
   for (int k = 0; k < 720; ++k) {
     const double a = std::numbers::pi * k / 720;
@@ -279,6 +279,16 @@ Stem::Section Stem::MeasureSection(double s) const {
     out.major_m = std::max(out.major_m, hi - lo);
     out.minor_m = std::min(out.minor_m, hi - lo);
   }
+  // The direction across the view, in the section's plane.
+  const Eigen::Vector3d across_stem =
+      world_from_stem_.inverse() * Eigen::Vector3d(-view_xy.y(), view_xy.x(), 0.0);
+  const Eigen::Vector2d across = across_stem.head<2>().normalized();
+  double lo = 1e9, hi = -1e9;
+  for (const auto& p : hull) {
+    lo = std::min(lo, p.dot(across));
+    hi = std::max(hi, p.dot(across));
+  }
+  out.across_m = hi - lo;
   return out;
 }
 

@@ -60,13 +60,15 @@ class Stem {
   double EnvelopeEntry(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const;
 
   // Truth at axis coordinate s: girth of the convex hull of the section perpendicular to the axis,
-  // and the largest and smallest caliper widths.
+  // the largest and smallest caliper widths, and the caliper width seen looking along the
+  // horizontal world direction `view_xy` (what a silhouette from that side shows).
   struct Section {
     double girth_m;
     double major_m;
     double minor_m;
+    double across_m;
   };
-  Section MeasureSection(double s) const;
+  Section MeasureSection(double s, const Eigen::Vector2d& view_xy = Eigen::Vector2d::UnitX()) const;
 
  private:
   double MeanRadius(double s) const;

@@ -30,6 +30,9 @@ TEST(Stem, EllipseKeepsMeanDiameterAndFurrowsDoNotChangeTheTapeGirth) {
   const Stem::Section e = Stem(p).MeasureSection(1.37);
   EXPECT_NEAR(e.major_m / e.minor_m, 1.0 / 0.9, 1e-3);
   EXPECT_NEAR(0.5 * (e.major_m + e.minor_m), 0.4, 1e-4);
+  // Major axis along x: looking along x shows the minor width, along y the major.
+  EXPECT_NEAR(e.across_m, e.minor_m, 1e-4);
+  EXPECT_NEAR(Stem(p).MeasureSection(1.37, Eigen::Vector2d::UnitY()).across_m, e.major_m, 1e-4);
   p.furrow_depth_m = 0.006;
   const Stem::Section f = Stem(p).MeasureSection(1.37);
   // A tape spans the furrows: girth changes by far less than the furrow depth.

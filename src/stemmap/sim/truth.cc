@@ -16,7 +16,9 @@ nlohmann::json TreeJson(const SceneTree& t) {
   const Stem& stem = t.stem;
   const StemParams& p = stem.params();
   const Eigen::Vector3d bh = stem.AxisPoint(p.s_bh_m);
-  const Stem::Section sec = stem.MeasureSection(p.s_bh_m);
+  // Seen from the plot centre: the width a silhouette shows, which an elliptic stem makes differ
+  // from the girth's diameter.
+  const Stem::Section sec = stem.MeasureSection(p.s_bh_m, bh.head<2>().normalized());
   return {{"id", t.id},
           {"x_m", bh.x()},
           {"y_m", bh.y()},
@@ -24,6 +26,7 @@ nlohmann::json TreeJson(const SceneTree& t) {
           {"dbh_cm", 100.0 * sec.girth_m / std::numbers::pi},
           {"major_cm", 100.0 * sec.major_m},
           {"minor_cm", 100.0 * sec.minor_m},
+          {"width_from_centre_cm", 100.0 * sec.across_m},
           {"lean_deg", p.lean_rad * kRad2Deg},
           {"lean_azimuth_deg", p.lean_azimuth_rad * kRad2Deg},
           {"distance_m", bh.head<2>().norm()},
