@@ -107,19 +107,20 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
 }
 
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
-                           const std::vector<cv::Mat>& bgr, std::vector<stems::Stem>* stems) {
+                           std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
+                           std::vector<stems::Stem>* stems) {
   // Silhouettes at the video's own resolution where the front end kept it, else the working one.
-  std::vector<cv::Mat> gray(bgr.size());
+  std::vector<cv::Mat> gray = std::move(gray_full);
   PinholeCamera camera = tr.camera;
-  const bool full = !tr.keyframe_gray_full.empty() && !tr.keyframe_gray_full[0].empty();
-  if (full) {
-    gray = tr.keyframe_gray_full;
+  if (!gray.empty() && !gray[0].empty()) {
     camera = tr.camera.Scaled(static_cast<double>(gray[0].cols) / tr.camera.width);
   } else {
+    gray.assign(bgr.size(), cv::Mat());
     for (size_t k = 0; k < bgr.size(); ++k) {
       if (!bgr[k].empty()) cv::cvtColor(bgr[k], gray[k], cv::COLOR_BGR2GRAY);
     }
   }
+  stems::PrepareTangentImages(o.tangent, &gray);
   std::vector<Eigen::Vector3d> occluders;
   for (const stems::Stem& s : *stems) {
     occluders.emplace_back(s.centre_xy.x(), s.centre_xy.y(), 0.5 * s.dbh_m);
@@ -204,7 +205,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   const stems::GroundGrid ground(dr.points, o.stems.search_radius_m + 2.0, 0.5);
   stems::StemsResult sr = stems::DetectStems(o.stems, dr.points, ground, dr.depth_focal_px);
   timing["stems_s"] = lap();
-  RefineWithTangentRays(o, tr, din.images, &sr.stems);
+  RefineWithTangentRays(o, tr, std::move(tr.keyframe_gray_full), din.images, &sr.stems);
   timing["tangent_rays_s"] = lap();
 
   ProcessResult r;

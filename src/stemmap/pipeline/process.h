@@ -59,9 +59,11 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
                                      const stems::TangentFit& fit, double px_m);
 
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
-// method it also gives the DBH.
+// method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution
+// (blurred in place), or empty to use `bgr` at the working resolution.
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
-                           const std::vector<cv::Mat>& bgr, std::vector<stems::Stem>* stems);
+                           std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
+                           std::vector<stems::Stem>* stems);
 
 // Every estimator's DBH per stem (stems_detail.csv), to compare them tree by tree.
 void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems::Stem>& stems);

@@ -6,8 +6,16 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 namespace stemmap::stems {
+
+void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray) {
+  if (o.blur_sigma_px <= 0) return;
+  for (cv::Mat& g : *gray) {
+    if (!g.empty()) cv::GaussianBlur(g, g, cv::Size(0, 0), o.blur_sigma_px);
+  }
+}
 
 bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
                         const std::vector<Eigen::Vector2d>& origins, double huber_m,
@@ -187,8 +195,8 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
     return x_begin + best + std::clamp(off, -0.5, 0.5);
   };
   // Where what lies behind disagrees too little (plain sky, a smooth far background), the
-  // silhouette is the strongest brightness step of the stem-to-background sign near the
-  // predicted edge.
+  // silhouette is the strongest brightness step near the predicted edge. Either sign: a sunlit
+  // side can be brighter than the background while the stem's middle is darker.
   const int rows = 2 * o.rows_half + 1;
   std::vector<double> row_inside;
   for (int i = 0; i < width; ++i) {
@@ -203,18 +211,33 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
     if (beyond.size() < 3) return false;
     const double bg_luma = Median(beyond) / rows;
     if (std::abs(bg_luma - stem_luma) < o.min_brightness_contrast) return false;
-    const double sign = bg_luma > stem_luma ? dir : -dir;
     const double window = std::max(3.0, 0.2 * (xr - xl));
     int best = -1;
     double best_g = 0;
+    // Mean brightness 2-4 px to one side of i (dir: outward +1, inward -1).
+    auto side_luma = [&](int i, int towards) {
+      double sum = 0;
+      int n = 0;
+      for (int j = 2; j <= 4; ++j) {
+        const int q = i + towards * dir * j;
+        if (q >= 0 && q < width) sum += row[q], ++n;
+      }
+      return n ? sum / (n * rows) : -1e9;
+    };
     for (int i = 1; i < width - 1; ++i) {
       if (std::abs(i - x_pred) > window) continue;
-      const double g = sign * (row[i + 1] - row[i - 1]);
+      // The step must part background-like brightness outside from something else inside.
+      const double out = std::abs(side_luma(i, 1) - bg_luma);
+      const double in = std::abs(side_luma(i, -1) - bg_luma);
+      if (!(out < in && out < 0.5 * o.min_brightness_contrast && in >= o.min_brightness_contrast))
+        continue;
+      const double g = std::abs(row[i + 1] - row[i - 1]);
       if (g > best_g) best_g = g, best = i;
     }
     if (best < 2 || best > width - 3 || best_g < 0.5 * o.min_brightness_contrast * rows) {
       return false;
     }
+    const double sign = row[best + 1] >= row[best - 1] ? 1.0 : -1.0;
     const double gm = sign * (row[best] - row[best - 2]), gp = sign * (row[best + 2] - row[best]);
     const double den = gm - 2 * best_g + gp;
     const double off = den < 0 ? 0.5 * (gm - gp) / den : 0.0;

@@ -44,6 +44,9 @@ struct TangentOptions {
   // whose fit has the most two-sided views wins. Empty: only the given radius.
   std::vector<double> wide_start_scales = {1.6, 2.2};
   bool refine_on_brightness = true;  // move each edge onto the nearby brightness step
+  // Gaussian blur of the images (px of the images used) before they are compared: resampling a
+  // neighbour softens sharp bark, which would read as disagreement inside a well-lit stem.
+  double blur_sigma_px = 1.0;
 
   // The pixel sizes above are for a 960-px wide working image; the same for images `s` times as
   // large.
@@ -73,6 +76,9 @@ struct TangentFit {
   int two_sided_views = 0;  // views that gave both silhouettes
   double arc_deg = 0.0;     // spread of the viewing directions used
 };
+
+// Blurs the keyframe images in place as `o.blur_sigma_px` says (before FitTangentRays).
+void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);
 
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
 // The circle found stays within max_sideways_m (or radius0) of centre0 across the line of sight

@@ -107,7 +107,10 @@ struct RenderedStem {
 };
 
 // Stems as (x, y, radius); the nearest one a pixel's ray meets is seen, each with its own bark.
-RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background) {
+// With `sunlit`, sun from +y lights the stems' left sides (as seen looking along +x) brighter than
+// a plain grey sky, their middles darker.
+RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
+                         bool sunlit = false) {
   RenderedStem r;
   for (int k = 0; k < 34; ++k) {
     const double th = (-30.0 + 2.0 * k) * M_PI / 180.0;
@@ -120,7 +123,7 @@ RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool texture
       for (int x = 0; x < img.cols; ++x) {
         const Eigen::Vector3d ray = world_from_cam.rotation * r.camera.CamRayFromImage({x, y});
         const Eigen::Vector2d u = ray.head<2>();
-        double luma = 210, nearest = 1e9;  // sky
+        double luma = sunlit ? 130 : 210, nearest = 1e9;  // sky
         for (size_t i = 0; i < stems.size(); ++i) {
           const Eigen::Vector2d q = world_from_cam.translation.head<2>() - stems[i].head<2>();
           const double a = u.squaredNorm(), b = q.dot(u),
@@ -131,6 +134,8 @@ RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool texture
           nearest = t;
           const Eigen::Vector2d hit = q + t * u;
           luma = 80 + 40 * i + 25 * std::sin(40 * std::atan2(hit.y(), hit.x()));  // furrows
+          if (sunlit)
+            luma = 70 + 130 * std::sqrt(std::max(0.0, hit.normalized().y())) + 0.4 * (luma - 80);
         }
         if (nearest > 1e8 && textured_background) {
           const double az = std::atan2(u.y(), u.x());
@@ -162,6 +167,21 @@ TEST(Tangent, FitsARenderedStem) {
     EXPECT_GT(fit.views, 10);
     EXPECT_EQ(fit.hidden_sides, 0);
   }
+}
+
+// A sunlit side brighter than a plain sky, the stem's middle darker: the silhouette is the step
+// at the lit side's outer border, not the fall from the lit side to the middle.
+TEST(Tangent, FitsASunlitStemAgainstAPlainSky) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.15;
+  const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}}, false, true);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  const TangentFit fit = FitTangentRays(TangentOptions().ForImageScale(640.0 / 960.0), views,
+                                        centre * (1.0 + 0.3 / centre.norm()), 0.13, 1.37);
+  ASSERT_TRUE(fit.ok);
+  EXPECT_NEAR(fit.radius_m, radius, 0.006);
+  EXPECT_LT((fit.centre - centre).norm(), 0.06);
+  EXPECT_GT(fit.two_sided_views, 10);
 }
 
 // A nearer stem beside the measured one from most views: told where it stands, the fit leaves
