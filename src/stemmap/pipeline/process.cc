@@ -87,13 +87,22 @@ std::string ProcessResult::Table() const {
   return s;
 }
 
+namespace {
+
+// The cloud's radius of a stem: its slice's width, else the circle fitted to it.
+double CloudRadius(const stems::Stem& s) {
+  return 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
+}
+
+}  // namespace
+
 SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& s,
                                      const stems::TangentFit& f, double px_m) {
   // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
   // neighbour): keep the cloud's estimate and say so. A stem partly hidden from the stereo
   // pairs is wider than its points: silhouettes on both sides in several views that agree to
   // about a pixel outrank them, and a part with little surface at breast height needs them.
-  const double r0 = 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
+  const double r0 = CloudRadius(s);
   const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
   const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
   const bool wider_two_sided = two_sided && f.radius_m > r0 && f.radius_m < 2.5 * r0;
@@ -132,7 +141,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
   std::vector<stems::Stem> kept;
   for (stems::Stem& s : *stems) {
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
-    const double r0 = 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
+    const double r0 = CloudRadius(s);
     const stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
     const double px_m = s.centre_xy.norm() / camera.fx;
     spdlog::debug(
