@@ -390,6 +390,11 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
           continue;
         }
         if (!FitEdgeLine(edge_y[s], edge_x[s], p_img.y(), min_points, &x)) continue;
+        // One line per silhouette for bench/silhouette_edges.py (image left = side 0).
+        spdlog::trace(
+            "tangent edge: start ({:.3f}, {:.3f}) r_start {:.4f} round {} keyframe {} t {:.4f} "
+            "side {} x {:.2f} y {:.2f}",
+            centre0.x(), centre0.y(), r_start, round, k, (*v.keyframes)[k].t_s, s, x, p_img.y());
         const Eigen::Vector3d ray = world_from_cam.rotation * cam.CamRayFromImage({x, p_img.y()});
         Eigen::Vector2d dir = ray.head<2>();
         if (dir.norm() < 1e-9) continue;
