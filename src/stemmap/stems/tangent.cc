@@ -426,9 +426,11 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     spdlog::debug("tangent:   solved ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm", c_new.x(), c_new.y(),
                   r_new, 1000 * rms);
     if ((c_new - centre0).norm() > 0.5 || r_new > 3 * radius0 + 0.1) return fit;
-    // The cloud misjudges depth, not bearing: a fit that moved sideways found another stem.
+    // The cloud misjudges depth, not bearing: a fit that moved sideways found another stem. A
+    // wide start supposes the cloud saw part of the stem, whose centre may then lie its radius
+    // to the side.
     const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
-    if (std::abs(across.dot(c_new - centre0)) > std::max(o.max_sideways_m, radius0)) return fit;
+    if (std::abs(across.dot(c_new - centre0)) > std::max(o.max_sideways_m, r_start)) return fit;
     // A refit that jumps away from an accepted one lost the silhouettes it had: keep that one.
     if (fit.ok && std::abs(r_new - fit.radius_m) > 0.25 * fit.radius_m) return fit;
     c = c_new;

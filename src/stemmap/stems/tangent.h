@@ -36,7 +36,7 @@ struct TangentOptions {
   // The starting centre (from the cloud) as a prior of this share of the stem's distance.
   double prior_share_of_distance = 0.05;
   int min_rays = 8;
-  double max_sideways_m = 0.1;      // move across the line of sight from the start (or its radius)
+  double max_sideways_m = 0.1;      // across the line of sight from the start (or its radius)
   double occluder_min_gap_m = 0.5;  // nearer stems closer than this to the stem are itself
   int refits = 2;                   // edge search again around the refined circle
   // The search also starts from the stem's radius times these (the cloud sees part of a stem
@@ -81,8 +81,8 @@ struct TangentFit {
 void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);
 
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
-// The circle found stays within max_sideways_m (or radius0) of centre0 across the line of sight
-// and within 0.5 m of it.
+// The circle found stays within max_sideways_m (or the radius a start supposes, radius0 or a wide
+// one) of centre0 across the line of sight and within 0.5 m of it.
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z);
 

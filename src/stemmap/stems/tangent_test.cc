@@ -218,6 +218,26 @@ TEST(Tangent, FitsAStemStartedFromHalfItsWidth) {
   EXPECT_GT(fit.two_sided_views, 10);
 }
 
+// A nearer stem hid most of this one from the stereo pairs: the cloud's part is under half the
+// stem's width and its centre lies more than max_sideways_m to one side. The widest start
+// supposes that much of a shift and finds both silhouettes.
+TEST(Tangent, FitsAStemWhoseCloudPartLiesToOneSide) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.2;
+  const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}}, true);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre.y(), centre.x()).normalized();
+  const TangentOptions o = TangentOptions().ForImageScale(640.0 / 960.0);
+  const Eigen::Vector2d start = centre + 0.13 * across;
+  ASSERT_GT(0.13, o.max_sideways_m);
+  const TangentFit fit = FitTangentRays(o, views, start, 0.09, 1.37);
+  ASSERT_TRUE(fit.ok);
+  // Within a pixel of these 640-px images (two refits from a start 13 cm off).
+  EXPECT_NEAR(fit.radius_m, radius, 0.012);
+  EXPECT_LT((fit.centre - centre).norm(), 0.06);
+  EXPECT_GT(fit.two_sided_views, 10);
+}
+
 TEST(Tangent, DegenerateSystems) {
   Eigen::Vector2d c;
   double r, sd, rms;
