@@ -61,5 +61,21 @@ TEST(JudgeSilhouetteFit, WiderTwoSidedSilhouettesOutrankTheCloud) {
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
 }
 
+// The widest tangent start supposes 2.2 times the cloud's width; a fit that grew a little
+// beyond it is still that stem, one far wider found something else.
+TEST(JudgeSilhouetteFit, WiderSilhouettesUpToALittleBeyondTheWidestStart) {
+  Case c;
+  c.stem.depth_smeared = false;
+  c.stem.weak_support = true;  // only silhouettes can keep it
+  c.fit.radius_m = 2.6 * 0.15;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.radius_m = 2.9 * 0.15;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+  ProcessOptions o;
+  o.tangent.wide_start_scales = {1.6};  // a narrower widest start narrows the bound
+  c.fit.radius_m = 2.6 * 0.15;
+  EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+}
+
 }  // namespace
 }  // namespace stemmap::pipeline
