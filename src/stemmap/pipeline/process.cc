@@ -3,7 +3,6 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
@@ -106,10 +105,8 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   const double r0 = CloudRadius(s);
   const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
   const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
-  // Up to a little more than the widest start supposes (the fit may grow from it).
-  const std::vector<double>& wide = o.tangent.wide_start_scales;
-  const double widest = 1.25 * std::max(2.0, wide.empty() ? 0.0 : *std::ranges::max_element(wide));
-  const bool wider_two_sided = two_sided && f.radius_m > r0 && f.radius_m < widest * r0;
+  const bool wider_two_sided =
+      two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
   const bool confirmed = !s.weak_support || two_sided;
   const bool plausible = f.ok && confirmed && (s.depth_smeared || near_cloud || wider_two_sided);
   if (plausible) return SilhouetteVerdict::kUse;

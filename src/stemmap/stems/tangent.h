@@ -43,6 +43,13 @@ struct TangentOptions {
   // that a nearer one hides, and its width is too small to find the far silhouette); the start
   // whose fit has the most two-sided views wins. Empty: only the given radius.
   std::vector<double> wide_start_scales = {1.6, 2.2};
+  // The largest radius, as a multiple of radius0, that a fit from these starts may reach:
+  // a little beyond the widest (a fit grows from its start), and 2.5 without wide starts.
+  double WidestFitScale() const {
+    const double widest =
+        wide_start_scales.empty() ? 0.0 : *std::ranges::max_element(wide_start_scales);
+    return 1.25 * std::max(2.0, widest);
+  }
   bool refine_on_brightness = true;  // move each edge onto the nearby brightness step
   // Gaussian blur of the images (px of the images used) before they are compared: resampling a
   // neighbour softens sharp bark, which would read as disagreement inside a well-lit stem.
