@@ -209,12 +209,14 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
   spdlog::debug("bundle adjustment: {}", summary.BriefReport());
 
   // Drop what the solution cannot explain.
+  std::vector<double> errors_px;
   for (int t : ids) {
     int good = 0;
     for (size_t k = 0; k < tracks[t].obs.size(); ++k) {
       if (!map->obs_valid[t][k]) continue;
       const double e = ReprojectionErrorPx(*map, camera, tracks[t].obs[k].keyframe,
                                            map->point_world[t], tracks[t].obs[k].px);
+      errors_px.push_back(e);
       if (e > o.outlier_px) {
         map->obs_valid[t][k] = 0;
         ++s.rejected_observations;
@@ -225,6 +227,14 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
     if (good < 2) map->point_valid[t] = 0;
   }
   s.final_rms_px = RmsPx(tracks, ids, camera, *map, nullptr);
+  if (!errors_px.empty()) {
+    std::sort(errors_px.begin(), errors_px.end());
+    const auto at = [&](double q) {
+      return errors_px[static_cast<size_t>(q * static_cast<double>(errors_px.size() - 1))];
+    };
+    spdlog::debug("bundle adjustment: error percentiles 50/75/90/99: {:.2f} {:.2f} {:.2f} {:.2f} px",
+                  at(0.5), at(0.75), at(0.9), at(0.99));
+  }
   return s;
 }
 
