@@ -19,6 +19,9 @@ void ProcessOptions::Check() const {
   if (!mask.model.empty()) mask.Check();
   if (!(plot_radius_m > 0)) throw InputError("--plot-radius must be positive");
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
+  if (!(one_sided_max_over_cloud >= 1)) {
+    throw InputError("a one-sided fit's bound over the cloud's width must be at least 1");
+  }
 }
 
 PlotFigures ComputePlotFigures(const std::vector<stems::Stem>& stems, double plot_radius_m,
@@ -108,6 +111,13 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   const bool wider_two_sided =
       two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
   const bool confirmed = !s.weak_support || two_sided;
+  // A fit from one side that came out wider than the points rests on nothing that can check it
+  // (an occluder's edge, the slack of a one-sided circle); a confirmed stem keeps the cloud's
+  // width.
+  const bool one_sided = f.two_sided_views < 3;
+  if (f.ok && confirmed && one_sided && f.radius_m > o.one_sided_max_over_cloud * r0) {
+    return SilhouetteVerdict::kKeepCloud;
+  }
   const bool plausible = f.ok && confirmed && (s.depth_smeared || near_cloud || wider_two_sided);
   if (plausible) return SilhouetteVerdict::kUse;
   // A smeared or weakly supported part is a stem only if silhouettes confirm it; so is every
@@ -156,7 +166,9 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       continue;
     }
     if (verdict == SilhouetteVerdict::kKeepCloud) {
-      if (o.stems.dbh_method == "tangent") s.flags.push_back("no_silhouette");
+      if (o.stems.dbh_method == "tangent") {
+        s.flags.push_back(f.ok && f.two_sided_views < 3 ? "one_sided" : "no_silhouette");
+      }
       kept.push_back(s);
       continue;
     }
@@ -245,6 +257,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"breast_height_m", o.stems.breast_height_m},
        {"dbh_method", o.stems.dbh_method},
        {"require_silhouette", o.require_silhouette},
+       {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
        {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});
   WriteJsonAtomic(out_dir / "summary.json", s);

@@ -25,6 +25,9 @@ struct ProcessOptions {
   // a leaf clump rarely does). Off by default: on the simulated natural plots it removed as many
   // true stems as false ones (see benchmarks.md).
   bool require_silhouette = false;
+  // Silhouettes on one side only cannot tell how far the stem reaches on the other: such a fit
+  // wider than this many times the cloud's width keeps the cloud's (see benchmarks.md).
+  double one_sided_max_over_cloud = 1.1;
   void Check() const;
 };
 

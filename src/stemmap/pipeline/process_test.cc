@@ -61,6 +61,20 @@ TEST(JudgeSilhouetteFit, WiderTwoSidedSilhouettesOutrankTheCloud) {
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
 }
 
+TEST(JudgeSilhouetteFit, AOneSidedFitCannotWidenTheCloud) {
+  Case c;
+  c.fit.two_sided_views = 2;
+  c.fit.radius_m = 0.2;  // a third wider than the points, from one side: unchecked
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.stem.depth_smeared = true;  // a stem all the same: kept with the cloud's width, not dropped
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.fit.radius_m = 0.145;  // narrower (the cloud's part of a stem can be smeared wider): used
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.radius_m = 0.2;  // both sides in three views: the wider fit is checked and used
+  c.fit.two_sided_views = 3;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+}
+
 // The widest tangent start supposes 2.2 times the cloud's width; a fit that grew a little
 // beyond it is still that stem, one far wider found something else.
 TEST(JudgeSilhouetteFit, WiderSilhouettesUpToALittleBeyondTheWidestStart) {

@@ -232,8 +232,9 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
     const auto at = [&](double q) {
       return errors_px[static_cast<size_t>(q * static_cast<double>(errors_px.size() - 1))];
     };
-    spdlog::debug("bundle adjustment: error percentiles 50/75/90/99: {:.2f} {:.2f} {:.2f} {:.2f} px",
-                  at(0.5), at(0.75), at(0.9), at(0.99));
+    spdlog::debug(
+        "bundle adjustment: error percentiles 50/75/90/99: {:.2f} {:.2f} {:.2f} {:.2f} px", at(0.5),
+        at(0.75), at(0.9), at(0.99));
   }
   return s;
 }
