@@ -70,13 +70,31 @@ MatchStats MatchAndScore(const EvaluateOptions& o, const std::vector<StemRecord>
                          const std::vector<StemRecord>& predicted) {
   // Every prediction may take any truth tree (so that trees just outside the plot absorb their
   // own detections); only scored trees count as hits, only in-plot leftovers as false.
-  std::vector<std::vector<double>> cost(predicted.size(), std::vector<double>(truth.size()));
-  for (size_t i = 0; i < predicted.size(); ++i) {
-    for (size_t j = 0; j < truth.size(); ++j) {
-      cost[i][j] = std::hypot(predicted[i].x_m - truth[j].x_m, predicted[i].y_m - truth[j].y_m);
+  // Only truth trees within the match radius of some prediction's range can take one (the yaw
+  // search rotates about the origin, which keeps ranges): the assignment runs on those alone.
+  std::vector<int> candidates;
+  for (size_t j = 0; j < truth.size(); ++j) {
+    for (const StemRecord& p : predicted) {
+      if (std::abs(p.DistanceM() - truth[j].DistanceM()) <= o.match_radius_m) {
+        candidates.push_back(static_cast<int>(j));
+        break;
+      }
     }
   }
-  const std::vector<int> match = SolveAssignment(cost, o.match_radius_m);
+  std::vector<std::vector<double>> cost(predicted.size(), std::vector<double>(candidates.size()));
+  for (size_t i = 0; i < predicted.size(); ++i) {
+    for (size_t c = 0; c < candidates.size(); ++c) {
+      const StemRecord& t = truth[candidates[c]];
+      cost[i][c] = std::hypot(predicted[i].x_m - t.x_m, predicted[i].y_m - t.y_m);
+    }
+  }
+  std::vector<int> match = SolveAssignment(cost, o.match_radius_m);
+  std::vector<double> match_m(predicted.size(), 0.0);
+  for (size_t i = 0; i < predicted.size(); ++i) {
+    if (match[i] < 0) continue;
+    match_m[i] = cost[i][match[i]];
+    match[i] = candidates[match[i]];
+  }
   auto scored = [&](const StemRecord& t) {
     return t.DistanceM() <= o.plot_radius_m && t.dbh_cm >= o.min_dbh_cm;
   };
@@ -92,8 +110,8 @@ MatchStats MatchAndScore(const EvaluateOptions& o, const std::vector<StemRecord>
         ++s.n_matched;
         ++s.n_predicted;
         dbh_pairs.emplace_back(predicted[i].dbh_cm, truth[j].dbh_cm);
-        pos_sq += cost[i][j] * cost[i][j];
-        pos_sum += cost[i][j];
+        pos_sq += match_m[i] * match_m[i];
+        pos_sum += match_m[i];
       }
     } else if (predicted[i].DistanceM() <= o.plot_radius_m && predicted[i].dbh_cm >= o.min_dbh_cm) {
       ++s.n_predicted;
