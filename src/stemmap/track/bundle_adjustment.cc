@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <memory>
 #include <numeric>
 
 #include "stemmap/core/error.h"
@@ -194,6 +195,18 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
   problem.AddResidualBlock(YawGaugeError::Create(), nullptr, map->centre_world[0].data());
 
   ceres::Solver::Options so;
+  // Points first, everything else after: left to itself Ceres also eliminates the mount (it
+  // touches no point), whose 3-row priors then keep the Schur eliminator off its fixed-size
+  // (2 rows, 3-point, 3-camera) specialisation.
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  std::vector<double*> blocks;
+  problem.GetParameterBlocks(&blocks);
+  for (double* b : blocks) ordering->AddElementToGroup(b, 1);
+  for (int t : ids) {
+    double* point = map->point_world[t].data();
+    if (problem.HasParameterBlock(point)) ordering->AddElementToGroup(point, 0);
+  }
+  so.linear_solver_ordering = ordering;
   // The reduced camera system couples most keyframes (each sees a sixth of the turn, the loop ties
   // the ends), so a dense factorisation beats the sparse one until it gets large.
   so.linear_solver_type =
