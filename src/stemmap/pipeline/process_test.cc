@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include "stemmap/core/error.h"
+
 namespace stemmap::pipeline {
 namespace {
 
@@ -73,6 +75,13 @@ TEST(JudgeSilhouetteFit, AOneSidedFitCannotWidenTheCloud) {
   c.fit.radius_m = 0.2;  // both sides in three views: the wider fit is checked and used
   c.fit.two_sided_views = 3;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+}
+
+TEST(ProcessOptions, AOneSidedBoundBelowTheCloudIsRejected) {
+  ProcessOptions o;
+  EXPECT_NO_THROW(o.Check());
+  o.one_sided_max_over_cloud = 0.9;  // would replace fits narrower than the cloud too
+  EXPECT_THROW(o.Check(), InputError);
 }
 
 // The widest tangent start supposes 2.2 times the cloud's width; a fit that grew a little
