@@ -3,12 +3,6 @@
 #include "stemmap/core/rng.h"
 
 namespace stemmap {
-namespace {
-
-inline double Fade(double t) { return t * t * t * (t * (t * 6.0 - 15.0) + 10.0); }
-inline double Lerp(double a, double b, double t) { return a + (b - a) * t; }
-
-}  // namespace
 
 ValueNoise::ValueNoise(uint64_t seed) {
   Rng rng(seed);
@@ -22,41 +16,13 @@ ValueNoise::ValueNoise(uint64_t seed) {
   }
 }
 
-double ValueNoise::Interp2(int x0, int x1, int iy, double tx, double ty) const {
-  const double a = Lerp(Value(x0, iy), Value(x1, iy), tx);
-  const double b = Lerp(Value(x0, iy + 1), Value(x1, iy + 1), tx);
-  return Lerp(a, b, ty);
-}
-
-double ValueNoise::Noise2(double x, double y) const {
-  const double fx = std::floor(x), fy = std::floor(y);
-  const int ix = static_cast<int>(static_cast<int64_t>(fx) & (kPeriod - 1));
-  const int iy = static_cast<int>(static_cast<int64_t>(fy) & (kPeriod - 1));
-  return Interp2(ix, ix + 1, iy, Fade(x - fx), Fade(y - fy));
-}
-
 double ValueNoise::Noise2PeriodicX(double x, double y, int period) const {
-  const double fx = std::floor(x), fy = std::floor(y);
-  int ix = static_cast<int>(static_cast<int64_t>(fx) % period);
+  const int64_t fx = FloorInt(x), fy = FloorInt(y);
+  int ix = static_cast<int>(fx % period);
   if (ix < 0) ix += period;
   const int ix1 = ix + 1 == period ? 0 : ix + 1;
-  const int iy = static_cast<int>(static_cast<int64_t>(fy) & (kPeriod - 1));
-  return Interp2(ix, ix1, iy, Fade(x - fx), Fade(y - fy));
-}
-
-double ValueNoise::Noise3(double x, double y, double z) const {
-  const double fx = std::floor(x), fy = std::floor(y), fz = std::floor(z);
-  const int ix = static_cast<int>(static_cast<int64_t>(fx) & (kPeriod - 1));
-  const int iy = static_cast<int>(static_cast<int64_t>(fy) & (kPeriod - 1));
-  const int iz = static_cast<int>(static_cast<int64_t>(fz) & (kPeriod - 1));
-  const double tx = Fade(x - fx), ty = Fade(y - fy), tz = Fade(z - fz);
-  double c[2];
-  for (int k = 0; k < 2; ++k) {
-    const double a = Lerp(Value(ix, iy, iz + k), Value(ix + 1, iy, iz + k), tx);
-    const double b = Lerp(Value(ix, iy + 1, iz + k), Value(ix + 1, iy + 1, iz + k), tx);
-    c[k] = Lerp(a, b, ty);
-  }
-  return Lerp(c[0], c[1], tz);
+  const int iy = static_cast<int>(fy & (kPeriod - 1));
+  return Interp2(ix, ix1, iy, Fade(x - static_cast<double>(fx)), Fade(y - static_cast<double>(fy)));
 }
 
 double ValueNoise::Fbm2(double x, double y, int octaves, double gain) const {

@@ -15,8 +15,8 @@ class ValueNoise {
 
   explicit ValueNoise(uint64_t seed = 0);
 
-  double Noise2(double x, double y) const;
-  double Noise3(double x, double y, double z) const;
+  inline double Noise2(double x, double y) const;
+  inline double Noise3(double x, double y, double z) const;
   // Noise2 that repeats every `period` units in x (1 <= period <= kPeriod), for azimuths.
   double Noise2PeriodicX(double x, double y, int period) const;
   // Fractal sums of `octaves` octaves, each twice the frequency and `gain` times the amplitude,
@@ -29,10 +29,44 @@ class ValueNoise {
   int Hash(int ix) const { return perm_[ix & (kPeriod - 1)]; }
   float Value(int ix, int iy) const { return values_[Hash(Hash(ix) + iy)]; }
   float Value(int ix, int iy, int iz) const { return values_[Hash(Hash(Hash(ix) + iy) + iz)]; }
-  double Interp2(int x0, int x1, int iy, double tx, double ty) const;
+  double Interp2(int x0, int x1, int iy, double tx, double ty) const {
+    const double a = Lerp(Value(x0, iy), Value(x1, iy), tx);
+    const double b = Lerp(Value(x0, iy + 1), Value(x1, iy + 1), tx);
+    return Lerp(a, b, ty);
+  }
+  static double Fade(double t) { return t * t * t * (t * (t * 6.0 - 15.0) + 10.0); }
+  static double Lerp(double a, double b, double t) { return a + (b - a) * t; }
+  // floor() without a libm call on CPUs lacking SSE4.1; exact for |x| < 2^31.
+  static int64_t FloorInt(double x) {
+    const auto i = static_cast<int64_t>(x);
+    return x < static_cast<double>(i) ? i - 1 : i;
+  }
 
   std::array<uint16_t, kPeriod> perm_;
   std::array<float, kPeriod> values_;
 };
+
+// Per-pixel hot paths: defined here so they inline into the renderer.
+double ValueNoise::Noise2(double x, double y) const {
+  const int64_t fx = FloorInt(x), fy = FloorInt(y);
+  const int ix = static_cast<int>(fx & (kPeriod - 1)), iy = static_cast<int>(fy & (kPeriod - 1));
+  return Interp2(ix, ix + 1, iy, Fade(x - static_cast<double>(fx)),
+                 Fade(y - static_cast<double>(fy)));
+}
+
+double ValueNoise::Noise3(double x, double y, double z) const {
+  const int64_t fx = FloorInt(x), fy = FloorInt(y), fz = FloorInt(z);
+  const int ix = static_cast<int>(fx & (kPeriod - 1)), iy = static_cast<int>(fy & (kPeriod - 1));
+  const int iz = static_cast<int>(fz & (kPeriod - 1));
+  const double tx = Fade(x - static_cast<double>(fx)), ty = Fade(y - static_cast<double>(fy));
+  const double tz = Fade(z - static_cast<double>(fz));
+  double c[2];
+  for (int k = 0; k < 2; ++k) {
+    const double a = Lerp(Value(ix, iy, iz + k), Value(ix + 1, iy, iz + k), tx);
+    const double b = Lerp(Value(ix, iy + 1, iz + k), Value(ix + 1, iy + 1, iz + k), tx);
+    c[k] = Lerp(a, b, ty);
+  }
+  return Lerp(c[0], c[1], tz);
+}
 
 }  // namespace stemmap

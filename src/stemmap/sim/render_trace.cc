@@ -238,14 +238,23 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
 
   // A stem side between pixel centres u and u + 1 lies in the footprint of one of the two: a ray
   // through their common border (u + 0.5) tells which, and only that pixel gets extra samples
-  // (on a rotated grid).
+  // (on a rotated grid). Each extra sample asks only whether it meets the nearer stem and takes
+  // the colour of the pixel on that side: the side's position is exact, its colour borrowed from
+  // one pixel away, at a fraction of a full trace.
   auto is_stem = [](int id) { return id >= kObjTree && id < kObjShrub; };
-  cv::Mat needs_samples(h, w, CV_8U, cv::Scalar(0));
+  // Marks: which neighbour lies across the edge; kFull where a full trace per sample is needed
+  // (an edge within one stem, or edges on both sides of a pixel).
+  constexpr uchar kRight = 1, kLeft = 2, kFull = 4;
+  cv::Mat marks(h, w, CV_8U, cv::Scalar(0));
+  // Whether pixel p is the nearer stem of the pair (p, q).
+  auto is_front = [&](const int* id, const float* dep, int p, int q) {
+    return is_stem(id[p]) && (!is_stem(id[q]) || dep[p] <= dep[q]);
+  };
 #pragma omp parallel for schedule(dynamic, 4)
   for (int v = 0; v < h; ++v) {
     const int* id = ids.ptr<int>(v);
     const float* dep = out.depth_m.ptr<float>(v);
-    uchar* mark = needs_samples.ptr<uchar>(v);
+    uchar* mark = marks.ptr<uchar>(v);
     for (int u = 0; u + 1 < w; ++u) {
       // Only stem sides need sub-pixel accuracy: a diameter is read across a stem. Leaves,
       // ground and sky edges, and foliage in front of a stem, do not.
@@ -256,11 +265,24 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
       }
       const Eigen::Vector3d rc =
           camera_.CamRayFromImage({u + 0.5, static_cast<double>(v)}).normalized();
-      const Sample mid = Trace(o, rot * rc, columns[u]);
-      const float mid_depth = mid.t * static_cast<float>(rc.z());
-      const bool like_a =
-          mid.object == a && std::abs(mid_depth - dep[u]) <= 0.04f * std::min(mid_depth, dep[u]);
-      mark[like_a ? u + 1 : u] = 1;
+      if (a == b) {
+        const Sample mid = Trace(o, rot * rc, columns[u]);
+        const float mid_depth = mid.t * static_cast<float>(rc.z());
+        const bool like_a =
+            mid.object == a && std::abs(mid_depth - dep[u]) <= 0.04f * std::min(mid_depth, dep[u]);
+        mark[like_a ? u + 1 : u] |= kFull;
+        continue;
+      }
+      const bool a_front = is_front(id, dep, u, u + 1);
+      const int front = a_front ? a : b;
+      const bool hit = scene_.trees[front - kObjTree]
+                           .stem.Intersect(o, rot * rc, 1e-4, kInf, 0.25 / camera_.fx)
+                           .has_value();
+      if (hit == a_front) {
+        mark[u + 1] |= kLeft;
+      } else {
+        mark[u] |= kRight;
+      }
     }
   }
   static const double kOffsets[16][2] = {
@@ -270,16 +292,28 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
       {0.0, -0.45},     {0.45, 0.0},     {0.0, 0.45},    {-0.45, 0.0}};
 #pragma omp parallel for schedule(dynamic, 4)
   for (int v = 0; v < h; ++v) {
-    const uchar* mark = needs_samples.ptr<uchar>(v);
+    const uchar* mark = marks.ptr<uchar>(v);
+    const int* id = ids.ptr<int>(v);
+    const float* dep = out.depth_m.ptr<float>(v);
     auto* rad = out.radiance.ptr<cv::Vec3f>(v);
+    const std::vector<cv::Vec3f> centre(rad, rad + w);  // colours before this pass
     for (int u = 0; u < w; ++u) {
       if (!mark[u]) continue;
-      cv::Vec3f sum = rad[u];
+      const bool full = (mark[u] & kFull) || mark[u] == (kLeft | kRight);
+      const int other = mark[u] == kRight ? u + 1 : u - 1;
+      const bool u_front = !full && is_front(id, dep, u, other);
+      const Stem* stem = full ? nullptr : &scene_.trees[id[u_front ? u : other] - kObjTree].stem;
+      cv::Vec3f sum = centre[u];
       for (int k = 0; k < options_.edge_samples; ++k) {
         const Eigen::Vector3d rc =
             camera_.CamRayFromImage({u + kOffsets[k][0], v + kOffsets[k][1]}).normalized();
-        const Sample s = Trace(o, rot * rc, columns[u]);
-        sum += cv::Vec3f(s.rgb.x(), s.rgb.y(), s.rgb.z());
+        if (full) {
+          const Sample s = Trace(o, rot * rc, columns[u]);
+          sum += cv::Vec3f(s.rgb.x(), s.rgb.y(), s.rgb.z());
+        } else {
+          const bool hit = stem->Intersect(o, rot * rc, 1e-4, kInf, 0.25 / camera_.fx).has_value();
+          sum += centre[hit == u_front ? u : other];
+        }
       }
       rad[u] = sum / static_cast<float>(options_.edge_samples + 1);
     }

@@ -46,8 +46,8 @@ void SimulateOptions::Check() const {
 std::string SimulateSummary::BriefReport() const {
   return fmt::format(
       "{} frames ({:.1f} s of video), {} trees within 10 m ({} in the scene), "
-      "rendered in {:.1f} s",
-      frames, seconds, plot_trees, all_trees, wall_s);
+      "rendered in {:.1f} s (render {:.1f}, sensor {:.1f}, encode {:.1f})",
+      frames, seconds, plot_trees, all_trees, wall_s, render_s, sensor_s, encode_s);
 }
 
 void to_json(nlohmann::json& j, const SimulateOptions& o) {
@@ -140,10 +140,17 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
   }
   Progress progress("simulate", static_cast<int64_t>(frames.size()));
   for (size_t i = 0; i < frames.size(); ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
     const RenderBuffers buffers = renderer.Render(frames[i].world_from_cam);
+    const auto t1 = std::chrono::steady_clock::now();
     const cv::Mat bgr = sensor.Capture(buffers, frames[i].yaw_rate_rad_s, o.arm_radius_m,
                                        static_cast<int>(i), 1.0 / o.fps);
+    const auto t2 = std::chrono::steady_clock::now();
     writer.Write(bgr);
+    const auto t3 = std::chrono::steady_clock::now();
+    summary.render_s += std::chrono::duration<double>(t1 - t0).count();
+    summary.sensor_s += std::chrono::duration<double>(t2 - t1).count();
+    summary.encode_s += std::chrono::duration<double>(t3 - t2).count();
     if (std::find(still_frames.begin(), still_frames.end(), static_cast<int>(i)) !=
         still_frames.end()) {
       const fs::path png = o.out_dir / "stills" / fmt::format("frame_{:05d}.png", i);

@@ -36,6 +36,7 @@ struct SimulateSummary {
   int plot_trees = 0;  // trees within 10 m of the centre
   int all_trees = 0;
   double wall_s = 0.0;
+  double render_s = 0.0, sensor_s = 0.0, encode_s = 0.0;  // parts of wall_s
   std::string BriefReport() const;
 };
 
