@@ -39,7 +39,9 @@ void AddTrackOptions(CLI::App* sub, track::TrackOptions* opt, std::filesystem::p
       ->capture_default_str();
   sub->add_option("--track-fps", opt->frontend.track_fps, "Frames tracked per second")
       ->capture_default_str();
-  sub->add_option("--threads", opt->bundle.threads, "Solver threads")->capture_default_str();
+  sub->add_option("--threads", opt->bundle.threads,
+                  "Bundle adjustment threads (above 1: faster, but not bit-reproducible)")
+      ->capture_default_str();
 }
 
 void AddTrackCommand(CLI::App& app) {

@@ -147,6 +147,38 @@ double RmsPx(const std::vector<Track>& tracks, const std::vector<int>& ids,
   return n ? std::sqrt(sq / n) : 0.0;
 }
 
+// The keyframe poses, mount and focal scale in one buffer, in a fixed order. Ceres orders the
+// blocks of an elimination group by address; separate allocations would let the heap's layout
+// (which other threads touch) change the order, and with it the rounding, from run to run.
+class CameraBlocks {
+ public:
+  explicit CameraBlocks(const SparseMap& map) : n_(static_cast<int>(map.centre_world.size())) {
+    v_.resize(7 * n_ + 5);
+    for (int k = 0; k < n_; ++k) {
+      std::copy_n(map.cam_from_world[k].coeffs().data(), 4, q(k));
+      std::copy_n(map.centre_world[k].data(), 3, c(k));
+    }
+    std::copy_n(map.arm_from_cam.coeffs().data(), 4, mount());
+    *focal() = map.focal_scale;
+  }
+  double* q(int k) { return &v_[7 * k]; }
+  double* c(int k) { return &v_[7 * k + 4]; }
+  double* mount() { return &v_[7 * n_]; }
+  double* focal() { return &v_[7 * n_ + 4]; }
+  void CopyTo(SparseMap* map) {
+    for (int k = 0; k < n_; ++k) {
+      std::copy_n(q(k), 4, map->cam_from_world[k].coeffs().data());
+      std::copy_n(c(k), 3, map->centre_world[k].data());
+    }
+    std::copy_n(mount(), 4, map->arm_from_cam.coeffs().data());
+    map->focal_scale = *focal();
+  }
+
+ private:
+  int n_;
+  std::vector<double> v_;
+};
+
 }  // namespace
 
 BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Track>& tracks,
@@ -161,6 +193,7 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
   ceres::Problem problem(po);
   ceres::EigenQuaternionManifold quaternion_manifold;
   const int n_kf = static_cast<int>(map->centre_world.size());
+  CameraBlocks cams(*map);
   ceres::LossFunction* reprojection_loss = new ceres::HuberLoss(o.loss_px);
   ceres::LossFunction* prior_loss = new ceres::HuberLoss(3.0);
   std::vector<char> kf_used(n_kf, 0);
@@ -170,29 +203,28 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
       const Observation& ob = tracks[t].obs[k];
       const Eigen::Vector3d ray = camera.CamRayFromImage(ob.px);
       problem.AddResidualBlock(ReprojectionError::Create(ray.head<2>(), camera.fx),
-                               reprojection_loss, map->cam_from_world[ob.keyframe].coeffs().data(),
-                               map->centre_world[ob.keyframe].data(), map->point_world[t].data(),
-                               &map->focal_scale);
+                               reprojection_loss, cams.q(ob.keyframe), cams.c(ob.keyframe),
+                               map->point_world[t].data(), cams.focal());
       kf_used[ob.keyframe] = 1;
       ++s.observations;
     }
     ++s.points;
   }
   for (int k = 0; k < n_kf; ++k) {
-    double* q = map->cam_from_world[k].coeffs().data();
-    double* c = map->centre_world[k].data();
+    double* q = cams.q(k);
+    double* c = cams.c(k);
     problem.AddResidualBlock(
         CirclePriorError::Create(o.arm_radius_m, o.sigma_radius_m, o.sigma_height_m), prior_loss,
         c);
     problem.AddResidualBlock(MountPriorError::Create(o.sigma_mount_deg * M_PI / 180.0), prior_loss,
-                             q, c, map->arm_from_cam.coeffs().data());
+                             q, c, cams.mount());
     problem.SetManifold(q, &quaternion_manifold);
   }
-  problem.SetManifold(map->arm_from_cam.coeffs().data(), &quaternion_manifold);
-  if (!o.refine_focal && problem.HasParameterBlock(&map->focal_scale)) {
-    problem.SetParameterBlockConstant(&map->focal_scale);
+  problem.SetManifold(cams.mount(), &quaternion_manifold);
+  if (!o.refine_focal && problem.HasParameterBlock(cams.focal())) {
+    problem.SetParameterBlockConstant(cams.focal());
   }
-  problem.AddResidualBlock(YawGaugeError::Create(), nullptr, map->centre_world[0].data());
+  problem.AddResidualBlock(YawGaugeError::Create(), nullptr, cams.c(0));
 
   ceres::Solver::Options so;
   // Points first, everything else after: left to itself Ceres also eliminates the mount (it
@@ -217,6 +249,7 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
   so.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
+  cams.CopyTo(map);
   s.iterations = static_cast<int>(summary.iterations.size());
   s.converged = summary.termination_type == ceres::CONVERGENCE;
   spdlog::debug("bundle adjustment: {}", summary.BriefReport());

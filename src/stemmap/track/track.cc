@@ -107,6 +107,7 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   VideoReaderOptions vro;
   vro.max_long_side_px = o.frontend.working_long_side_px;
   vro.full_gray = o.frontend.keep_keyframe_images;
+  vro.prefetch_frames = 8;  // decoding overlaps tracking
   VideoReader reader(video, vro);
   r.camera = WorkingCamera(o, reader.info());
   spdlog::info("track: {}x{} {:.2f} fps {}, working {}x{}, hfov {:.1f}°", reader.info().width,

@@ -11,8 +11,14 @@ extern "C" {
 
 #include <fmt/format.h>
 
+#include <atomic>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
 #include <opencv2/core.hpp>
+#include <thread>
 
 #include "stemmap/core/error.h"
 
@@ -87,14 +93,33 @@ struct VideoReader::Impl {
   SwsContext* sws_gray = nullptr;
   int stream_index = -1;
   int64_t decoded = 0;
-  int corrupt = 0;
+  std::atomic<int> corrupt = 0;
   bool flushing = false;
   bool done = false;
   double first_t_s = NAN;
   int out_w = 0, out_h = 0;    // decoded-orientation output size before rotation
   int full_w = 0, full_h = 0;  // decoded-orientation stored size before rotation
 
+  // Prefetching: the background thread fills `queue` up to options.prefetch_frames.
+  std::thread worker;
+  std::mutex mutex;
+  std::condition_variable changed;
+  std::deque<DecodedFrame> queue;
+  bool worker_done = false, stop = false;
+  std::exception_ptr worker_error;
+
+  std::optional<DecodedFrame> Decode();
+  void Prefetch();
+
   ~Impl() {
+    if (worker.joinable()) {
+      {
+        const std::lock_guard lock(mutex);
+        stop = true;
+      }
+      changed.notify_all();
+      worker.join();
+    }
     sws_freeContext(sws);
     sws_freeContext(sws_gray);
     av_packet_free(&packet);
@@ -164,6 +189,7 @@ VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options
   m.info.full_height = swap ? m.full_w : m.full_h;
   m.frame = av_frame_alloc();
   m.packet = av_packet_alloc();
+  if (options.prefetch_frames > 0) m.worker = std::thread([&m] { m.Prefetch(); });
 }
 
 VideoReader::~VideoReader() = default;
@@ -173,6 +199,45 @@ int VideoReader::corrupt_packets() const { return impl_->corrupt; }
 
 std::optional<DecodedFrame> VideoReader::Next() {
   Impl& m = *impl_;
+  if (!m.worker.joinable()) return m.Decode();
+  std::unique_lock lock(m.mutex);
+  m.changed.wait(lock, [&m] { return !m.queue.empty() || m.worker_done; });
+  if (m.queue.empty()) {
+    if (m.worker_error) std::rethrow_exception(std::exchange(m.worker_error, nullptr));
+    return std::nullopt;
+  }
+  DecodedFrame out = std::move(m.queue.front());
+  m.queue.pop_front();
+  lock.unlock();
+  m.changed.notify_all();
+  return out;
+}
+
+void VideoReader::Impl::Prefetch() {
+  try {
+    while (std::optional<DecodedFrame> f = Decode()) {
+      std::unique_lock lock(mutex);
+      changed.wait(lock, [this] {
+        return stop || queue.size() < static_cast<size_t>(options.prefetch_frames);
+      });
+      if (stop) break;
+      queue.push_back(std::move(*f));
+      lock.unlock();
+      changed.notify_all();
+    }
+  } catch (...) {
+    const std::lock_guard lock(mutex);
+    worker_error = std::current_exception();
+  }
+  {
+    const std::lock_guard lock(mutex);
+    worker_done = true;
+  }
+  changed.notify_all();
+}
+
+std::optional<DecodedFrame> VideoReader::Impl::Decode() {
+  Impl& m = *this;
   while (!m.done) {
     int ret = avcodec_receive_frame(m.dec, m.frame);
     if (ret == 0) {

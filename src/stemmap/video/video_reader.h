@@ -33,11 +33,15 @@ struct VideoReaderOptions {
   // Also return each frame's luma at full resolution, for measurements finer than tracking.
   bool full_gray = false;
   int threads = 2;
+  // Frames decoded ahead on a background thread while the caller works on earlier ones
+  // (0 = decode on the caller's thread). Frames arrive in the same order either way.
+  int prefetch_frames = 0;
 };
 
 // Decodes a video file (any codec and container FFmpeg reads: H.264/HEVC in mp4/mov, ...) to BGR
 // frames in display orientation. Throws InputError when the file cannot be opened or holds no
-// video stream. Corrupt packets are skipped and counted.
+// video stream. Corrupt packets are skipped and counted. With prefetching, an error on the
+// background thread surfaces from the Next() call that would have met it.
 class VideoReader {
  public:
   VideoReader(const std::filesystem::path& path, const VideoReaderOptions& options = {});
@@ -48,6 +52,7 @@ class VideoReader {
   const VideoInfo& info() const;
   // The next frame, or nullopt at the end of the stream.
   std::optional<DecodedFrame> Next();
+  // Packets the decoder rejected so far (all of them once Next() has returned nullopt).
   int corrupt_packets() const;
 
  private:

@@ -69,6 +69,37 @@ TEST(Video, WriteThenReadRoundTrip) {
   EXPECT_NEAR(last_t, 1.9, 1e-6);
 }
 
+TEST(Video, PrefetchingGivesTheSameFramesInTheSameOrder) {
+  const fs::path path = TestDir() / "prefetch.mp4";
+  VideoWriterOptions wo;
+  wo.width = 160;
+  wo.height = 96;
+  wo.fps = 10;
+  VideoWriter writer(path, wo);
+  for (int i = 0; i < 25; ++i) writer.Write(TestFrame(wo.width, wo.height, i));
+  writer.Close();
+
+  VideoReader direct(path);
+  VideoReaderOptions ro;
+  ro.prefetch_frames = 3;
+  VideoReader ahead(path, ro);
+  int n = 0;
+  while (auto a = direct.Next()) {
+    const auto b = ahead.Next();
+    ASSERT_TRUE(b.has_value()) << "frame " << n;
+    EXPECT_EQ(b->index, a->index);
+    EXPECT_DOUBLE_EQ(b->t_s, a->t_s);
+    EXPECT_EQ(cv::norm(a->bgr, b->bgr, cv::NORM_INF), 0.0) << "frame " << n;
+    ++n;
+  }
+  EXPECT_EQ(n, 25);
+  EXPECT_FALSE(ahead.Next().has_value());
+  EXPECT_FALSE(ahead.Next().has_value()) << "the end stays the end";
+  // A reader dropped mid-stream stops its background thread.
+  VideoReader abandoned(path, ro);
+  ASSERT_TRUE(abandoned.Next().has_value());
+}
+
 TEST(Video, MissingAndCorruptFilesAreInputErrors) {
   EXPECT_THROW(VideoReader(TestDir() / "nope.mp4"), InputError);
   const fs::path junk = TestDir() / "junk.mp4";
