@@ -102,41 +102,6 @@ TEST(BundleAdjustment, DenseAndSparseSchurAgree) {
   }
 }
 
-TEST(BundleAdjustment, ResultDoesNotDependOnWhereTheMapLives) {
-  SyntheticRig rig(7);
-  BundleOptions o;
-  o.max_points = 600;
-  SparseMap a;
-  PlaceOnCircle(rig.phi, 1.0, &a);
-  TriangulateTracks(o, rig.tracks, rig.camera, &a);
-  SparseMap b = a;
-  const auto rotations_first = [](const SparseMap& m) {
-    return reinterpret_cast<uintptr_t>(m.cam_from_world.data()) <
-           reinterpret_cast<uintptr_t>(m.centre_world.data());
-  };
-  // Move one of b's vectors to a new allocation until its rotations lie on the other side of its
-  // centres in memory than a's do.
-  const bool a_rotations_first = rotations_first(a);
-  for (int i = 0; i < 16 && rotations_first(b) == a_rotations_first; ++i) {
-    if (a_rotations_first) {
-      std::vector<Eigen::Quaterniond> moved = b.cam_from_world;
-      b.cam_from_world.swap(moved);
-    } else {
-      std::vector<Eigen::Vector3d> moved = b.centre_world;
-      b.centre_world.swap(moved);
-    }
-  }
-  if (rotations_first(b) == a_rotations_first) {
-    GTEST_SKIP() << "the allocator kept the order";
-  }
-  RunBundleAdjustment(o, rig.tracks, rig.camera, &a);
-  RunBundleAdjustment(o, rig.tracks, rig.camera, &b);
-  for (size_t k = 0; k < rig.phi.size(); ++k) {
-    ASSERT_EQ(a.centre_world[k], b.centre_world[k]) << "keyframe " << k;
-    ASSERT_EQ(a.cam_from_world[k].coeffs(), b.cam_from_world[k].coeffs()) << "keyframe " << k;
-  }
-}
-
 TEST(BundleAdjustment, RejectsBadOptions) {
   BundleOptions o;
   o.arm_radius_m = 0.0;
