@@ -1,5 +1,6 @@
 #include "stemmap/track/bundle_adjustment.h"
 
+#include <ceres/product_manifold.h>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
@@ -161,6 +162,7 @@ class CameraBlocks {
     std::copy_n(map.arm_from_cam.coeffs().data(), 4, mount());
     *focal() = map.focal_scale;
   }
+  double* pose(int k) { return &v_[7 * k]; }  // [q_cam_from_world, c_world]
   double* q(int k) { return &v_[7 * k]; }
   double* c(int k) { return &v_[7 * k + 4]; }
   double* mount() { return &v_[7 * n_]; }
@@ -192,6 +194,7 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
   po.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   ceres::EigenQuaternionManifold quaternion_manifold;
+  ceres::ProductManifold<ceres::EigenQuaternionManifold, ceres::EuclideanManifold<3>> pose_manifold;
   const int n_kf = static_cast<int>(map->centre_world.size());
   CameraBlocks cams(*map);
   ceres::LossFunction* reprojection_loss = new ceres::HuberLoss(o.loss_px);
@@ -202,8 +205,8 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
       if (!map->obs_valid[t][k]) continue;
       const Observation& ob = tracks[t].obs[k];
       const Eigen::Vector3d ray = camera.CamRayFromImage(ob.px);
-      problem.AddResidualBlock(ReprojectionError::Create(ray.head<2>(), camera.fx),
-                               reprojection_loss, cams.q(ob.keyframe), cams.c(ob.keyframe),
+      problem.AddResidualBlock(PoseReprojectionError::Create(ray.head<2>(), camera.fx),
+                               reprojection_loss, cams.pose(ob.keyframe),
                                map->point_world[t].data(), cams.focal());
       kf_used[ob.keyframe] = 1;
       ++s.observations;
@@ -211,20 +214,19 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
     ++s.points;
   }
   for (int k = 0; k < n_kf; ++k) {
-    double* q = cams.q(k);
-    double* c = cams.c(k);
+    double* pose = cams.pose(k);
     problem.AddResidualBlock(
-        CirclePriorError::Create(o.arm_radius_m, o.sigma_radius_m, o.sigma_height_m), prior_loss,
-        c);
-    problem.AddResidualBlock(MountPriorError::Create(o.sigma_mount_deg * M_PI / 180.0), prior_loss,
-                             q, c, cams.mount());
-    problem.SetManifold(q, &quaternion_manifold);
+        PoseCirclePriorError::Create(o.arm_radius_m, o.sigma_radius_m, o.sigma_height_m),
+        prior_loss, pose);
+    problem.AddResidualBlock(PoseMountPriorError::Create(o.sigma_mount_deg * M_PI / 180.0),
+                             prior_loss, pose, cams.mount());
+    problem.SetManifold(pose, &pose_manifold);
   }
   problem.SetManifold(cams.mount(), &quaternion_manifold);
   if (!o.refine_focal && problem.HasParameterBlock(cams.focal())) {
     problem.SetParameterBlockConstant(cams.focal());
   }
-  problem.AddResidualBlock(YawGaugeError::Create(), nullptr, cams.c(0));
+  problem.AddResidualBlock(PoseYawGaugeError::Create(), nullptr, cams.pose(0));
 
   ceres::Solver::Options so;
   // Points first, everything else after: left to itself Ceres also eliminates the mount (it

@@ -113,4 +113,64 @@ struct YawGaugeError {
   }
 };
 
+// The same residuals on one 7-double keyframe pose block [q_cam_from_world (x, y, z, w), c_world]:
+// one block per keyframe halves the blocks the Schur eliminator visits and lets Ceres use its
+// (2, 3, 6) specialisation.
+struct PoseReprojectionError {
+  PoseReprojectionError(const Eigen::Vector2d& uv, double focal_px) : e_(uv, focal_px) {}
+  template <typename T>
+  bool operator()(const T* pose, const T* x_world, const T* focal_scale, T* r) const {
+    return e_(pose, pose + 4, x_world, focal_scale, r);
+  }
+  static ceres::CostFunction* Create(const Eigen::Vector2d& uv, double focal_px) {
+    return new ceres::AutoDiffCostFunction<PoseReprojectionError, 2, 7, 3, 1>(
+        new PoseReprojectionError(uv, focal_px));
+  }
+
+ private:
+  ReprojectionError e_;
+};
+
+struct PoseCirclePriorError {
+  PoseCirclePriorError(double radius_m, double sigma_radius_m, double sigma_height_m)
+      : e_(radius_m, sigma_radius_m, sigma_height_m) {}
+  template <typename T>
+  bool operator()(const T* pose, T* r) const {
+    return e_(pose + 4, r);
+  }
+  static ceres::CostFunction* Create(double radius_m, double sigma_radius_m,
+                                     double sigma_height_m) {
+    return new ceres::AutoDiffCostFunction<PoseCirclePriorError, 2, 7>(
+        new PoseCirclePriorError(radius_m, sigma_radius_m, sigma_height_m));
+  }
+
+ private:
+  CirclePriorError e_;
+};
+
+struct PoseMountPriorError {
+  explicit PoseMountPriorError(double sigma_rad) : e_(sigma_rad) {}
+  template <typename T>
+  bool operator()(const T* pose, const T* q_arm_from_cam, T* r) const {
+    return e_(pose, pose + 4, q_arm_from_cam, r);
+  }
+  static ceres::CostFunction* Create(double sigma_rad) {
+    return new ceres::AutoDiffCostFunction<PoseMountPriorError, 3, 7, 4>(
+        new PoseMountPriorError(sigma_rad));
+  }
+
+ private:
+  MountPriorError e_;
+};
+
+struct PoseYawGaugeError {
+  template <typename T>
+  bool operator()(const T* pose, T* r) const {
+    return YawGaugeError()(pose + 4, r);
+  }
+  static ceres::CostFunction* Create() {
+    return new ceres::AutoDiffCostFunction<PoseYawGaugeError, 1, 7>(new PoseYawGaugeError);
+  }
+};
+
 }  // namespace stemmap::track
