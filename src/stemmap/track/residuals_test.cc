@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
 
 namespace stemmap::track {
@@ -88,6 +89,35 @@ TEST(Residuals, MountPriorZeroOnTheRigAndGradient) {
   EXPECT_NEAR(Eigen::Vector3d(r[0], r[1], r[2]).norm(), 2.0, 1e-6);
   ExpectGradientsMatch<MountPriorError, 3, 4, 3, 4>(
       MountPriorError(0.01), {off.coeffs().data(), c.data(), m.coeffs().data()});
+}
+
+// The pose-block adapters read [q, c] from one block and must agree with the split functors.
+TEST(Residuals, PoseBlockAdaptersMatchTheSplitResiduals) {
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(0.4, Eigen::Vector3d(0.1, 1.0, 0.2).normalized()));
+  const Eigen::Vector3d c(0.95, 0.3, 0.02);
+  Eigen::Vector3d x(2.0, 1.0, 5.0);
+  const Eigen::Quaterniond m(Eigen::AngleAxisd(0.03, Eigen::Vector3d(1, -2, 1).normalized()));
+  double pose[7];
+  std::copy_n(q.coeffs().data(), 4, pose);
+  std::copy_n(c.data(), 3, pose + 4);
+  double k = 1.01;
+  double a[3], b[3];
+  ReprojectionError({0.1, -0.05}, 800.0)(q.coeffs().data(), c.data(), x.data(), &k, a);
+  PoseReprojectionError({0.1, -0.05}, 800.0)(pose, x.data(), &k, b);
+  EXPECT_EQ(a[0], b[0]);
+  EXPECT_EQ(a[1], b[1]);
+  CirclePriorError(0.99, 0.01, 0.02)(c.data(), a);
+  PoseCirclePriorError(0.99, 0.01, 0.02)(pose, b);
+  EXPECT_EQ(a[0], b[0]);
+  EXPECT_EQ(a[1], b[1]);
+  MountPriorError(0.01)(q.coeffs().data(), c.data(), m.coeffs().data(), a);
+  PoseMountPriorError(0.01)(pose, m.coeffs().data(), b);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(a[i], b[i]);
+  YawGaugeError()(c.data(), a);
+  PoseYawGaugeError()(pose, b);
+  EXPECT_EQ(a[0], b[0]);
+  ExpectGradientsMatch<PoseReprojectionError, 2, 7, 3, 1>(
+      PoseReprojectionError({0.1, -0.05}, 800.0), {pose, x.data(), &k});
 }
 
 }  // namespace
