@@ -29,7 +29,10 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    // Wrong flags are bad input like any other: one line, exit code 2.
+    fmt::print(stderr, "stemmap: error: {} (see --help)\n", e.what());
+    return 2;
   } catch (const stemmap::InputError& e) {
     fmt::print(stderr, "stemmap: error: {}\n", e.what());
     return 2;

@@ -14,6 +14,16 @@ void AddProcessCommand(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "process", "Tree list of a capture video: positions and DBH (trees.csv, summary.json)");
   AddTrackOptions(sub, &opt->track, video.get(), out.get());
+  CLI::Option* from_track =
+      sub->add_option("--from-track", opt->from_track,
+                      "Reuse the keyframe poses and camera of an earlier track or process run "
+                      "(its output folder) instead of tracking the video again")
+          ->check(CLI::ExistingDirectory);
+  // What only tracking uses cannot be changed for a reused track.
+  for (const char* name : {"--arm-radius", "--hfov", "--calibration", "--focal", "--camera-height",
+                           "--working-size", "--track-fps", "--threads"}) {
+    from_track->excludes(sub->get_option(name));
+  }
   sub->add_option("--plot-radius", opt->plot_radius_m, "Plot radius for the plot figures (m)")
       ->capture_default_str();
   sub->add_option("--min-dbh", opt->min_dbh_cm, "Smallest DBH counted in the figures (cm)")

@@ -121,6 +121,27 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   EXPECT_GE(m.recall, 0.6);
   EXPECT_GE(m.precision, 0.6);
   EXPECT_LT(m.dbh.mae_cm, 8.0);
+
+  // The later stages again on the saved track: the same trees, without tracking.
+  pipeline::ProcessOptions again = o;
+  again.from_track = dir / "out";
+  const pipeline::ProcessResult r2 = pipeline::RunProcess(again, dir / "video.mp4", dir / "again");
+  ASSERT_EQ(r2.stems.size(), r.stems.size());
+  for (size_t i = 0; i < r.stems.size(); ++i) {
+    EXPECT_NEAR((r2.stems[i].centre_xy - r.stems[i].centre_xy).norm(), 0.0, 1e-3) << i;
+    EXPECT_NEAR(r2.stems[i].dbh_m, r.stems[i].dbh_m, 1e-3) << i;
+  }
+  EXPECT_TRUE(fs::exists(dir / "again" / "trajectory.tum"));
+  EXPECT_EQ(ReadJsonFile(dir / "again" / "summary.json")["track"]["reused_from"],
+            fs::absolute(dir / "out").string());
+  // A folder that holds no track, or a video of another size, is refused.
+  pipeline::ProcessOptions bad = o;
+  bad.from_track = dir / "again" / "missing";
+  EXPECT_THROW(pipeline::RunProcess(bad, dir / "video.mp4", dir / "bad"), InputError);
+  sim::SimulateOptions small = ShortPlot(dir / "small", 1.1);
+  small.seconds = 1;
+  sim::RunSimulate(small);
+  EXPECT_THROW(pipeline::RunProcess(again, dir / "small" / "video.mp4", dir / "bad"), InputError);
   fs::remove_all(dir);
 }
 

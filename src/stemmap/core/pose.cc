@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <sstream>
 
 #include "stemmap/core/error.h"
@@ -11,11 +12,13 @@ namespace stemmap {
 
 void WriteTumTrajectory(const std::filesystem::path& path, const std::vector<StampedPose>& poses) {
   std::string text = "# t tx ty tz qx qy qz qw (world_from_camera, OpenCV camera axes)\n";
+  // Shortest round-trip digits: a stage that reads the file back sees the very same poses.
   for (const StampedPose& p : poses) {
-    const Eigen::Quaterniond q = p.world_from_cam.rotation.normalized();
+    Eigen::Quaterniond q = p.world_from_cam.rotation;
+    if (std::abs(q.norm() - 1.0) > 1e-9) q.normalize();
     const Eigen::Vector3d& t = p.world_from_cam.translation;
-    text += fmt::format("{:.6f} {:.6f} {:.6f} {:.6f} {:.9f} {:.9f} {:.9f} {:.9f}\n", p.t_s, t.x(),
-                        t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    text += fmt::format("{:.6f} {} {} {} {} {} {} {}\n", p.t_s, t.x(), t.y(), t.z(), q.x(), q.y(),
+                        q.z(), q.w());
   }
   WriteFileAtomic(path, text);
 }
@@ -40,7 +43,8 @@ std::vector<StampedPose> ReadTumTrajectory(const std::filesystem::path& path) {
     if (q.norm() < 1e-9) {
       throw InputError(fmt::format("{}:{}: zero quaternion", path.string(), line_no));
     }
-    poses.push_back({v[0], {q.normalized(), Eigen::Vector3d(v[1], v[2], v[3])}});
+    if (std::abs(q.norm() - 1.0) > 1e-9) q.normalize();  // a unit one stays bit for bit
+    poses.push_back({v[0], {q, Eigen::Vector3d(v[1], v[2], v[3])}});
   }
   return poses;
 }

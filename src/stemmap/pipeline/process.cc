@@ -9,6 +9,8 @@
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
+#include "stemmap/core/pose.h"
+#include "stemmap/track/track_io.h"
 
 namespace stemmap::pipeline {
 
@@ -218,7 +220,16 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   // The front end keeps the keyframe images: the video is decoded once.
   track::TrackOptions topt = o.track;
   topt.frontend.keep_keyframe_images = true;
-  track::TrackResult tr = track::RunTrack(topt, video, out_dir);
+  track::TrackResult tr;
+  if (o.from_track.empty()) {
+    tr = track::RunTrack(topt, video, out_dir);
+  } else {
+    tr = track::LoadTrack(o.from_track, video, /*full_gray=*/true);
+    std::filesystem::create_directories(out_dir);
+    WriteTumTrajectory(out_dir / "keyframes.tum", tr.keyframes);
+    WriteTumTrajectory(out_dir / "trajectory.tum", tr.frames.empty() ? tr.keyframes : tr.frames);
+    tr.summary["reused_from"] = std::filesystem::absolute(o.from_track).string();
+  }
   timing["track_s"] = lap();
   dense::DenseInput din{tr.camera, tr.keyframes, std::move(tr.keyframe_images)};
   if (mask_model) din.mask_model = mask_model.get();
@@ -258,6 +269,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"dbh_method", o.stems.dbh_method},
        {"require_silhouette", o.require_silhouette},
        {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
+       {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
        {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});
   WriteJsonAtomic(out_dir / "summary.json", s);

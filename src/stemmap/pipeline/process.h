@@ -28,6 +28,9 @@ struct ProcessOptions {
   // Silhouettes on one side only cannot tell how far the stem reaches on the other: such a fit
   // wider than this many times the cloud's width keeps the cloud's (see benchmarks.md).
   double one_sided_max_over_cloud = 1.1;
+  // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
+  // camera are used instead of tracking again; empty: track the video.
+  std::filesystem::path from_track;
   void Check() const;
 };
 
@@ -46,8 +49,9 @@ struct ProcessResult {
   std::string Table() const;  // plain-text tree list for the terminal
 };
 
-// `stemmap process`: track, dense depth, stems and DBH. Writes OUT/trees.csv, OUT/summary.json,
-// OUT/process_options.json and the stages' own files (trajectory.tum, cloud.ply, ...).
+// `stemmap process`: track (or reuse a track), dense depth, stems and DBH. Writes OUT/trees.csv,
+// OUT/summary.json, OUT/process_options.json and the stages' own files (trajectory.tum, cloud.ply,
+// ...).
 ProcessResult RunProcess(const ProcessOptions& options, const std::filesystem::path& video,
                          const std::filesystem::path& out_dir);
 

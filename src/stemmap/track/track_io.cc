@@ -1,9 +1,16 @@
 #include "stemmap/track/track_io.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <cmath>
+
+#include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
+#include "stemmap/core/progress.h"
 #include "stemmap/track/track.h"
+#include "stemmap/video/video_reader.h"
 
 namespace stemmap::track {
 
@@ -24,6 +31,70 @@ void WriteTrackOutputs(const std::filesystem::path& out_dir, const TrackResult& 
   WriteTumTrajectory(out_dir / "keyframes.tum", r.keyframes);
   WritePointsPly(out_dir / "sparse.ply", r.points_plot);
   WriteJsonAtomic(out_dir / "summary.json", {{"track", r.summary}});
+}
+
+TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::path& video,
+                      bool full_gray) {
+  for (const char* name : {"keyframes.tum", "summary.json"}) {
+    if (!std::filesystem::exists(dir / name)) {
+      throw InputError(fmt::format("{} has no {}: not a track folder", dir.string(), name));
+    }
+  }
+  TrackResult r;
+  try {
+    const nlohmann::json summary = ReadJsonFile(dir / "summary.json");
+    r.summary = summary.at("track");
+    r.camera = r.summary.at("camera").get<PinholeCamera>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(fmt::format("{}: no track camera in it ({})",
+                                 (dir / "summary.json").string(), e.what()));
+  }
+  r.keyframes = ReadTumTrajectory(dir / "keyframes.tum");
+  if (r.keyframes.size() < 3) {
+    throw InputError(fmt::format("{} holds {} keyframes; a track has many more",
+                                 (dir / "keyframes.tum").string(), r.keyframes.size()));
+  }
+  if (std::filesystem::exists(dir / "trajectory.tum")) {
+    r.frames = ReadTumTrajectory(dir / "trajectory.tum");
+  }
+  VideoReaderOptions vro;
+  vro.max_long_side_px = std::max(r.camera.width, r.camera.height);
+  vro.full_gray = full_gray;
+  vro.prefetch_frames = 8;
+  VideoReader reader(video, vro);
+  const VideoInfo& info = reader.info();
+  if (info.width != r.camera.width || info.height != r.camera.height) {
+    throw InputError(fmt::format("the track in {} was made at {}x{}; this video decodes at {}x{}",
+                                 dir.string(), r.camera.width, r.camera.height, info.width,
+                                 info.height));
+  }
+  // Each keyframe takes the frame nearest its time, within half a frame interval.
+  const double half_frame_s = 0.5 / (info.fps > 0 ? info.fps : 30.0);
+  r.keyframe_images.assign(r.keyframes.size(), cv::Mat());
+  if (full_gray) r.keyframe_gray_full.assign(r.keyframes.size(), cv::Mat());
+  std::vector<double> gap_s(r.keyframes.size(), half_frame_s);
+  Progress progress("decoding keyframes", std::max<int64_t>(1, info.frame_count));
+  size_t k = 0;  // first keyframe not yet behind the current frame
+  while (std::optional<DecodedFrame> f = reader.Next()) {
+    progress.Update(f->index + 1);
+    while (k < r.keyframes.size() && r.keyframes[k].t_s < f->t_s - half_frame_s) ++k;
+    for (size_t j = k; j < r.keyframes.size() && r.keyframes[j].t_s <= f->t_s + half_frame_s;
+         ++j) {
+      const double gap = std::abs(r.keyframes[j].t_s - f->t_s);
+      if (!r.keyframe_images[j].empty() && gap >= gap_s[j]) continue;
+      gap_s[j] = gap;
+      r.keyframe_images[j] = f->bgr;
+      if (full_gray) r.keyframe_gray_full[j] = f->gray_full;
+    }
+  }
+  for (size_t j = 0; j < r.keyframes.size(); ++j) {
+    if (r.keyframe_images[j].empty()) {
+      throw InputError(fmt::format("no frame of {} at keyframe time {:.3f} s of {}: another video?",
+                                   video.string(), r.keyframes[j].t_s, dir.string()));
+    }
+  }
+  spdlog::info("track: {} keyframes reused from {}", r.keyframes.size(), dir.string());
+  return r;
 }
 
 nlohmann::json ToJson(const TrackOptions& o) {
