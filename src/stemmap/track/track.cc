@@ -199,8 +199,7 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
         "track: no ground plane found; assuming the camera at 1.3 m (give --camera-height)");
   }
   const Eigen::Vector3d forward0 = map.cam_from_world[0].conjugate() * Eigen::Vector3d::UnitZ();
-  const VerticalEstimate vertical =
-      EstimateVertical(o.vertical, f.keyframes, f.tracks, map, r.camera);
+  const VerticalEstimate vertical = EstimateVertical(o.vertical, f.keyframes, map, r.camera);
   if (!vertical.found) {
     spdlog::warn("track: too few trunk edges to find the vertical; using the rotation axis");
   }

@@ -1,6 +1,7 @@
 #include "stemmap/track/vertical.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -12,82 +13,96 @@ void VerticalOptions::Check() const {
   if (!(inlier_deg > 0) || !(max_from_axis_deg > 0)) {
     throw InputError("vertical estimation thresholds must be positive");
   }
-}
-
-namespace {
-
-// Median horizontal position of the points whose observations in keyframe `k` lie on the
-// segment; false when none does.
-bool LocateSegment(const VerticalOptions& o, const cv::Vec4f& s,
-                   const std::vector<std::pair<Eigen::Vector2d, int>>& obs, const SparseMap& map,
-                   Eigen::Vector2d* xy) {
-  const Eigen::Vector2d a(s[0], s[1]), b(s[2], s[3]);
-  const Eigen::Vector2d d = (b - a).normalized();
-  const double len = (b - a).norm();
-  std::vector<double> xs, ys;
-  for (const auto& [px, t] : obs) {
-    const Eigen::Vector2d q = px - a;
-    const double along = q.dot(d);
-    if (along < 0 || along > len || std::abs(q.x() * d.y() - q.y() * d.x()) > o.match_px) continue;
-    xs.push_back(map.point_world[t].x());
-    ys.push_back(map.point_world[t].y());
+  if (!(cell_m > 0) || !(ray_tolerance_m > 0) || !(max_range_m > min_range_m)) {
+    throw InputError("vertical estimation: trunk grouping sizes must be positive");
   }
-  if (xs.size() < 2) return false;
-  std::nth_element(xs.begin(), xs.begin() + xs.size() / 2, xs.end());
-  std::nth_element(ys.begin(), ys.begin() + ys.size() / 2, ys.end());
-  *xy = {xs[xs.size() / 2], ys[ys.size() / 2]};
-  return true;
 }
 
-}  // namespace
+std::vector<int> GroupRaysByTrunk(const VerticalOptions& o,
+                                  const std::vector<Eigen::Vector2d>& origins,
+                                  const std::vector<Eigen::Vector2d>& directions) {
+  const int n_rays = static_cast<int>(origins.size());
+  const double extent = o.max_range_m + 2.0;  // cameras sit within a metre or so of the axis
+  const int side = static_cast<int>(std::ceil(2 * extent / o.cell_m));
+  auto cell_of = [&](const Eigen::Vector2d& p) {
+    const int i = static_cast<int>(std::floor((p.x() + extent) / o.cell_m));
+    const int j = static_cast<int>(std::floor((p.y() + extent) / o.cell_m));
+    return (i < 0 || j < 0 || i >= side || j >= side) ? -1 : j * side + i;
+  };
+  // Every cell a ray crosses gets one vote from it.
+  std::vector<int> votes(static_cast<size_t>(side) * side, 0);
+  std::vector<std::vector<int>> crossed(n_rays);
+  for (int r = 0; r < n_rays; ++r) {
+    for (double t = o.min_range_m; t <= o.max_range_m; t += 0.5 * o.cell_m) {
+      const int c = cell_of(origins[r] + t * directions[r]);
+      if (c >= 0 && (crossed[r].empty() || crossed[r].back() != c)) crossed[r].push_back(c);
+    }
+    std::ranges::sort(crossed[r]);
+    const auto [first, last] = std::ranges::unique(crossed[r]);
+    crossed[r].erase(first, last);
+    for (int c : crossed[r]) ++votes[c];
+  }
+  // Greedy: the best-voted cell is a trunk; its rays leave the vote.
+  std::vector<int> group(n_rays, -1);
+  int groups = 0;
+  while (true) {
+    const auto best = std::ranges::max_element(votes);  // first of equals: deterministic
+    if (*best < o.min_trunk_segments) break;
+    const int c = static_cast<int>(best - votes.begin());
+    const Eigen::Vector2d centre((c % side + 0.5) * o.cell_m - extent,
+                                 (c / side + 0.5) * o.cell_m - extent);
+    int members = 0;
+    for (int r = 0; r < n_rays; ++r) {
+      if (group[r] >= 0) continue;
+      const Eigen::Vector2d q = centre - origins[r];
+      const double along = q.dot(directions[r]);
+      const double across = std::abs(q.x() * directions[r].y() - q.y() * directions[r].x());
+      if (along <= 0 || across > o.ray_tolerance_m) continue;
+      group[r] = groups;
+      ++members;
+      for (int k : crossed[r]) --votes[k];
+    }
+    if (members == 0) {
+      votes[c] = 0;  // its voters passed too far from the cell's centre
+      continue;
+    }
+    ++groups;
+  }
+  for (int& g : group) {
+    if (g < 0) g = groups++;
+  }
+  return group;
+}
 
 VerticalEstimate EstimateVertical(const VerticalOptions& o, const std::vector<Keyframe>& keyframes,
-                                  const std::vector<Track>& tracks, const SparseMap& map,
-                                  const PinholeCamera& camera) {
+                                  const SparseMap& map, const PinholeCamera& camera) {
   o.Check();
   VerticalEstimate v;
-  // Observations of triangulated points per keyframe, to locate segments.
-  std::vector<std::vector<std::pair<Eigen::Vector2d, int>>> obs_by_kf(keyframes.size());
-  for (size_t t = 0; t < tracks.size() && t < map.point_valid.size(); ++t) {
-    if (!map.point_valid[t]) continue;
-    for (const Observation& ob : tracks[t].obs) {
-      if (ob.keyframe < static_cast<int>(obs_by_kf.size())) {
-        obs_by_kf[ob.keyframe].emplace_back(ob.px, static_cast<int>(t));
-      }
-    }
-  }
-  std::map<std::pair<int, int>, double> cluster_length;  // trunk key -> total segment length
-  std::vector<std::pair<int, int>> key;
-  // Unit normals (axis frame) of the planes through each camera centre and trunk edge, weighted
-  // by the segment's length: a vertical edge's plane contains "up", so n . up = 0.
+  // Unit normals (axis frame) of the planes through each camera centre and trunk edge: a
+  // vertical edge's plane contains "up", so n . up = 0. Each segment's horizontal viewing ray
+  // says where along the plane its trunk stands.
   std::vector<Eigen::Vector3d> normals;
-  std::vector<double> length;
+  std::vector<Eigen::Vector2d> origins, directions;
   for (size_t k = 0; k < keyframes.size() && k < map.cam_from_world.size(); ++k) {
     const Eigen::Quaterniond world_from_cam = map.cam_from_world[k].conjugate();
     for (const cv::Vec4f& s : keyframes[k].vertical_segments) {
       const Eigen::Vector3d a = camera.CamRayFromImage({s[0], s[1]});
       const Eigen::Vector3d b = camera.CamRayFromImage({s[2], s[3]});
-      Eigen::Vector3d n = world_from_cam * a.cross(b);
-      if (n.norm() < 1e-9) continue;
-      Eigen::Vector2d xy;
-      std::pair<int, int> k_cell;
-      if (LocateSegment(o, s, obs_by_kf[k], map, &xy)) {
-        k_cell = {static_cast<int>(std::floor(xy.x() / o.cell_m)),
-                  static_cast<int>(std::floor(xy.y() / o.cell_m))};
-      } else {
-        const Eigen::Vector3d mid = world_from_cam * (a + b);
-        const double az = std::atan2(mid.y(), mid.x()) * 180.0 / M_PI;
-        k_cell = {1 << 20, static_cast<int>(std::floor(az / o.far_bin_deg))};
-      }
+      const Eigen::Vector3d n = world_from_cam * a.cross(b);
+      const Eigen::Vector2d d = (world_from_cam * (a + b)).head<2>();
+      if (n.norm() < 1e-9 || d.norm() < 1e-9) continue;
       normals.push_back(n.normalized());
-      length.push_back(std::hypot(s[2] - s[0], s[3] - s[1]));
-      key.push_back(k_cell);
-      cluster_length[k_cell] += length.back();
+      origins.push_back(map.centre_world[k].head<2>());
+      directions.push_back(d.normalized());
     }
   }
   // Each trunk's segments share one unit of weight.
-  for (size_t i = 0; i < length.size(); ++i) length[i] /= cluster_length[key[i]];
-  v.trunks = static_cast<int>(cluster_length.size());
+  const std::vector<int> trunk = GroupRaysByTrunk(o, origins, directions);
+  std::map<int, int> per_trunk;
+  for (int t : trunk) ++per_trunk[t];
+  std::vector<double> weight(normals.size());
+  for (size_t i = 0; i < weight.size(); ++i) weight[i] = 1.0 / per_trunk[trunk[i]];
+  v.trunks = static_cast<int>(per_trunk.size());
   v.segments = static_cast<int>(normals.size());
   if (v.segments < o.min_segments) return v;
   const double scale = std::sin(o.inlier_deg * M_PI / 180.0);
@@ -99,7 +114,7 @@ VerticalEstimate EstimateVertical(const VerticalOptions& o, const std::vector<Ke
     for (size_t i = 0; i < normals.size(); ++i) {
       const double r = normals[i].dot(up) / scale;
       if (std::abs(r) > 3.0) continue;  // Tukey: edges of leaning, broken or bent things
-      const double w = length[i] * std::pow(1.0 - r * r / 9.0, 2);
+      const double w = weight[i] * std::pow(1.0 - r * r / 9.0, 2);
       m += w * normals[i] * normals[i].transpose();
       wsum += w;
       ++inliers;

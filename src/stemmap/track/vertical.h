@@ -17,9 +17,14 @@ struct VerticalOptions {
   double inlier_deg = 2.0;         // robust weight scale of a segment's plane residual
   double max_from_axis_deg = 6.0;  // the stand is never tilted further than this
   int min_segments = 30;
-  double cell_m = 0.6;       // segments located within one cell are one trunk
-  double far_bin_deg = 1.5;  // segments without a located point: one trunk per azimuth bin
-  double match_px = 4.0;     // track observations this close to a segment locate it
+  // Segments are grouped into trunks by where their rays meet: a horizontal grid of this cell
+  // votes for every cell a segment's ray crosses (from min to max range of its camera); the
+  // best-voted cell takes the segments whose rays pass within ray_tolerance_m, and so on while a
+  // cell holds min_trunk_segments.
+  double cell_m = 0.3;
+  double ray_tolerance_m = 0.35;
+  double min_range_m = 1.0, max_range_m = 40.0;
+  int min_trunk_segments = 3;
   void Check() const;
 };
 
@@ -31,11 +36,17 @@ struct VerticalEstimate {
   double sd_deg = 0.0;    // standard error of the estimate
 };
 
-// Uses the keyframes' vertical segments and the adjusted cameras and points in `map`. Trunks lean
-// independently, so each trunk (segments grouped by where they stand) gets the same weight: a near
-// trunk, seen large and with furrows, must not outvote the many far ones.
+// Uses the keyframes' vertical segments and the adjusted cameras in `map`. Trunks lean
+// independently, so each trunk gets the same weight: a near trunk, seen large and with furrows in
+// every view, must not outvote the many far ones (their mean lean is what the estimate cannot
+// tell from the vertical).
 VerticalEstimate EstimateVertical(const VerticalOptions& o, const std::vector<Keyframe>& keyframes,
-                                  const std::vector<Track>& tracks, const SparseMap& map,
-                                  const PinholeCamera& camera);
+                                  const SparseMap& map, const PinholeCamera& camera);
+
+// Groups horizontal rays (origin, unit direction; axis frame) that meet at one trunk, as
+// EstimateVertical does; returns one group index per ray (rays in no group get their own).
+std::vector<int> GroupRaysByTrunk(const VerticalOptions& o,
+                                  const std::vector<Eigen::Vector2d>& origins,
+                                  const std::vector<Eigen::Vector2d>& directions);
 
 }  // namespace stemmap::track
