@@ -120,8 +120,14 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   if (f.ok && confirmed && one_sided && f.radius_m > o.one_sided_max_over_cloud * r0) {
     return SilhouetteVerdict::kKeepCloud;
   }
-  const bool plausible = f.ok && confirmed && (s.depth_smeared || near_cloud || wider_two_sided);
+  // A smeared part's width across the line of sight is rough, but not off by half: a fit beyond
+  // half or twice it caught something else (a neighbour, one side of the stem), though the
+  // silhouettes it found still confirm a stem.
+  const bool smeared_width = f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0;
+  const bool plausible =
+      f.ok && confirmed && (s.depth_smeared ? smeared_width : near_cloud || wider_two_sided);
   if (plausible) return SilhouetteVerdict::kUse;
+  if (f.ok && confirmed && s.depth_smeared) return SilhouetteVerdict::kKeepCloud;
   // A smeared or weakly supported part is a stem only if silhouettes confirm it; so is every
   // part when silhouettes are required.
   if (o.require_silhouette || s.depth_smeared || s.weak_support) return SilhouetteVerdict::kDrop;

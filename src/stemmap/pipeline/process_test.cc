@@ -77,6 +77,19 @@ TEST(JudgeSilhouetteFit, AOneSidedFitCannotWidenTheCloud) {
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
 }
 
+TEST(JudgeSilhouetteFit, ASmearedStemsFitMustStayWithinHalfToTwiceItsWidth) {
+  Case c;
+  c.stem.depth_smeared = true;
+  c.fit.radius_m = 0.24;  // 1.6 times the smeared width: rough, used
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.radius_m = 0.36;  // 2.4 times: a neighbour's edge; the silhouettes still confirm a stem
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.fit.radius_m = 0.03;  // a fifth of it: one side of the stem and a furrow
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.fit.ok = false;  // no silhouettes at all: a smeared part is not a stem
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+}
+
 TEST(ProcessOptions, AOneSidedBoundBelowTheCloudIsRejected) {
   ProcessOptions o;
   EXPECT_NO_THROW(o.Check());
