@@ -46,8 +46,8 @@ TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::p
     r.summary = summary.at("track");
     r.camera = r.summary.at("camera").get<PinholeCamera>();
   } catch (const nlohmann::json::exception& e) {
-    throw InputError(fmt::format("{}: no track camera in it ({})",
-                                 (dir / "summary.json").string(), e.what()));
+    throw InputError(
+        fmt::format("{}: no track camera in it ({})", (dir / "summary.json").string(), e.what()));
   }
   r.keyframes = ReadTumTrajectory(dir / "keyframes.tum");
   if (r.keyframes.size() < 3) {
@@ -78,8 +78,7 @@ TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::p
   while (std::optional<DecodedFrame> f = reader.Next()) {
     progress.Update(f->index + 1);
     while (k < r.keyframes.size() && r.keyframes[k].t_s < f->t_s - half_frame_s) ++k;
-    for (size_t j = k; j < r.keyframes.size() && r.keyframes[j].t_s <= f->t_s + half_frame_s;
-         ++j) {
+    for (size_t j = k; j < r.keyframes.size() && r.keyframes[j].t_s <= f->t_s + half_frame_s; ++j) {
       const double gap = std::abs(r.keyframes[j].t_s - f->t_s);
       if (!r.keyframe_images[j].empty() && gap >= gap_s[j]) continue;
       gap_s[j] = gap;
