@@ -21,6 +21,13 @@ void DenseOptions::Check() const {
     throw InputError(fmt::format("stereo pair turn {}° must lie in 2-40°", pair_turn_deg));
   }
   if (!(reference_step_deg > 0)) throw InputError("reference step must be positive");
+  if (near_pair_turn_deg != 0 && !(near_pair_turn_deg >= 2.0 && near_pair_turn_deg <= 40.0)) {
+    throw InputError(
+        fmt::format("near stereo pair turn {}° must be 0 or lie in 2-40°", near_pair_turn_deg));
+  }
+  if (!(near_min_depth_m > 0 && near_max_depth_m > near_min_depth_m)) {
+    throw InputError("near stereo depths must be positive and increasing");
+  }
 }
 
 namespace {
@@ -29,6 +36,35 @@ namespace {
 double Heading(const Rigid3d& world_from_cam) {
   const Eigen::Vector3d f = world_from_cam.rotation * Eigen::Vector3d::UnitZ();
   return std::atan2(f.y(), f.x());
+}
+
+// Reference keyframes every `step` of turn (one turn's worth), each paired with the later keyframe
+// nearest `pair` of turn beyond it (within a quarter of it). Headings unwrapped, in rad.
+std::vector<std::pair<int, int>> SelectPairs(const std::vector<double>& heading, double pair,
+                                             double step) {
+  const int n = static_cast<int>(heading.size());
+  const double sign = heading.back() >= heading.front() ? 1.0 : -1.0;
+  std::vector<std::pair<int, int>> pairs;
+  double next_ref = heading[0];
+  for (int k = 0; k < n; ++k) {
+    if (sign * (heading[k] - next_ref) < 0) continue;
+    // Stop one turn after the start: the rest sees the same trees again.
+    if (sign * (heading[k] - heading[0]) > 2 * M_PI) break;
+    int best = -1;
+    double best_err = 0.25 * pair;
+    for (int j = k + 1; j < n && sign * (heading[j] - heading[k]) < 1.5 * pair; ++j) {
+      const double err = std::abs(sign * (heading[j] - heading[k]) - pair);
+      if (err < best_err) {
+        best_err = err;
+        best = j;
+      }
+    }
+    if (best >= 0) {
+      pairs.emplace_back(k, best);
+      next_ref = heading[k] + sign * step;
+    }
+  }
+  return pairs;
 }
 
 }  // namespace
@@ -69,26 +105,21 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
     heading[k] = Heading(in.keyframes[k].world_from_cam);
     if (k > 0) heading[k] = heading[k - 1] + std::remainder(heading[k] - heading[k - 1], 2 * M_PI);
   }
-  const double sign = heading.back() >= heading.front() ? 1.0 : -1.0;
-  const double pair = o.pair_turn_deg * M_PI / 180.0, step = o.reference_step_deg * M_PI / 180.0;
-  std::vector<std::pair<int, int>> pairs;
-  double next_ref = heading[0];
-  for (int k = 0; k < n; ++k) {
-    if (sign * (heading[k] - next_ref) < 0) continue;
-    // Stop one turn after the start: the rest sees the same trees again.
-    if (sign * (heading[k] - heading[0]) > 2 * M_PI) break;
-    int best = -1;
-    double best_err = 0.25 * pair;
-    for (int j = k + 1; j < n && sign * (heading[j] - heading[k]) < 1.5 * pair; ++j) {
-      const double err = std::abs(sign * (heading[j] - heading[k]) - pair);
-      if (err < best_err) {
-        best_err = err;
-        best = j;
-      }
-    }
-    if (best >= 0) {
-      pairs.emplace_back(k, best);
-      next_ref = heading[k] + sign * step;
+  struct Pair {
+    int a, b;
+    const StereoOptions* stereo;
+  };
+  std::vector<Pair> pairs;
+  StereoOptions near_stereo = o.stereo;
+  near_stereo.min_depth_m = o.near_min_depth_m;
+  near_stereo.max_depth_m = o.near_max_depth_m;
+  for (const auto& [turn_deg, stereo] :
+       {std::pair{o.pair_turn_deg, &o.stereo},
+        std::pair{o.near_pair_turn_deg, static_cast<const StereoOptions*>(&near_stereo)}}) {
+    if (turn_deg <= 0) continue;
+    for (const auto& [a, b] :
+         SelectPairs(heading, turn_deg * M_PI / 180.0, o.reference_step_deg * M_PI / 180.0)) {
+      pairs.push_back({a, b, stereo});
     }
   }
   DenseResult r;
@@ -96,11 +127,11 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
   Progress progress("depth", static_cast<int64_t>(pairs.size()));
   int masked = 0;
   for (size_t i = 0; i < pairs.size(); ++i) {
-    const auto [a, b] = pairs[i];
+    const auto [a, b, stereo] = pairs[i];
     const cv::Mat &ia = in.images[a], &ib = in.images[b];
     if (ia.empty() || ib.empty()) continue;
     std::vector<CloudPoint> pts =
-        StereoPairPoints(o.stereo, ia, ib, in.camera, in.keyframes[a].world_from_cam,
+        StereoPairPoints(*stereo, ia, ib, in.camera, in.keyframes[a].world_from_cam,
                          in.keyframes[b].world_from_cam, a);
     if (in.mask_model != nullptr) {
       LabelTrunkPoints(in.mask_model->Predict(ia), in.camera, in.keyframes[a].world_from_cam, &pts);

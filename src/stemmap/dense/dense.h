@@ -15,6 +15,11 @@ struct DenseOptions {
   StereoOptions stereo;
   double pair_turn_deg = 14.0;      // turn between the two keyframes of a pair (baseline ~0.24 m)
   double reference_step_deg = 4.0;  // one reference keyframe every this much turn
+  // Near stems (a metre or two from the camera) look too different from keyframes 14° apart to
+  // match; pairs this far apart (0: none) add depth between near_min_depth_m and near_max_depth_m.
+  double near_pair_turn_deg = 5.0;
+  double near_min_depth_m = 0.5;
+  double near_max_depth_m = 2.5;
   void Check() const;
 };
 

@@ -4,6 +4,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <map>
 #include <opencv2/imgproc.hpp>
@@ -306,19 +307,27 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
           m.size(), c0.x(), c0.y(), 2 * r0, ground.Height(c0.x(), c0.y()));
       continue;
     }
-    // Verticality: centroids of three sub-slices of the band on one near-vertical line.
+    // Verticality: centroids of three sub-slices of the band on one near-vertical line. Only
+    // points near the stem's circle count: clutter joined to the part at one height (smeared
+    // edges of a near trunk, a branch) would drag that sub-slice's centroid away.
+    // A sub-slice with a tenth of the best one's points holds no surface, only stray points (a
+    // near stem's top is out of view).
     const double third = (o.band_high_m - o.band_low_m) / 3;
+    const double core_m = r0 + 0.25;
+    std::array<Eigen::Vector3d, 3> sum;
+    std::array<int, 3> cnt = {0, 0, 0};
+    sum.fill(Eigen::Vector3d::Zero());
+    for (int i : m) {
+      const Eigen::Vector2d xy(band[i]->world.x(), band[i]->world.y());
+      const int s = static_cast<int>(std::floor((band_h[i] - o.band_low_m) / third));
+      if ((xy - c0).norm() > core_m || s < 0 || s > 2) continue;
+      sum[s] += Eigen::Vector3d(xy.x(), xy.y(), band_h[i]);
+      ++cnt[s];
+    }
+    const int most = *std::ranges::max_element(cnt);
     std::vector<Eigen::Vector3d> cent;
     for (int s = 0; s < 3; ++s) {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      int cnt = 0;
-      for (int i : m) {
-        if (band_h[i] >= o.band_low_m + s * third && band_h[i] < o.band_low_m + (s + 1) * third) {
-          sum += Eigen::Vector3d(band[i]->world.x(), band[i]->world.y(), band_h[i]);
-          ++cnt;
-        }
-      }
-      if (cnt >= 5) cent.push_back(sum / cnt);
+      if (cnt[s] >= 5 && 10 * cnt[s] >= most) cent.push_back(sum[s] / cnt[s]);
     }
     double lean_deg = 90.0;
     if (cent.size() >= 2) {
@@ -327,8 +336,14 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     }
     if (lean_deg > o.max_lean_deg) {
       ++result.rejected_vertical;
-      spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: lean {:.1f}°", c0.x(), c0.y(),
-                    lean_deg);
+      spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: lean {:.1f}° ({} sub-slices{})",
+                    c0.x(), c0.y(), lean_deg, cent.size(),
+                    cent.size() >= 2
+                        ? fmt::format(", ({:.2f}, {:.2f}, {:.2f}) to ({:.2f}, {:.2f}, "
+                                      "{:.2f})",
+                                      cent.front().x(), cent.front().y(), cent.front().z(),
+                                      cent.back().x(), cent.back().y(), cent.back().z())
+                        : "");
       continue;
     }
     // Breast-height slice.

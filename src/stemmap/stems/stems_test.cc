@@ -145,5 +145,35 @@ TEST(Stems, SmearedFarTrunkIsKeptByItsWidthAcross) {
   EXPECT_NEAR(s.dbh_slice_m, 2 * r, 0.05);
 }
 
+// A near trunk seen only up to 1.6 m (its top is out of view), with a few stray points joined to
+// it higher up and off to one side: the strays must not read as a lean.
+TEST(Stems, NearTrunkWithStrayPointsAboveIsVertical) {
+  Rng rng(6);
+  std::vector<dense::CloudPoint> cloud;
+  const Eigen::Vector3d origin(0, 0, 1.3);
+  auto add = [&](const Eigen::Vector3d& p) {
+    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+  };
+  for (int i = 0; i < 60000; ++i) {
+    add(Eigen::Vector3d(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01)));
+  }
+  const Eigen::Vector2d c(-1.1, -1.6);
+  const double r = 0.15, bearing = std::atan2(c.y(), c.x());
+  for (int i = 0; i < 20000; ++i) {
+    const double a = bearing + M_PI + rng.Uniform(-1.2, 1.2);
+    add(Eigen::Vector3d(c.x() + r * std::cos(a), c.y() + r * std::sin(a), rng.Uniform(0.9, 1.6)));
+  }
+  for (int i = 0; i < 800; ++i) {  // strays up to 0.6 m behind, 1.7-2.1 m up, touching the trunk
+    const double d = rng.Uniform(0.0, 0.6), side = rng.Uniform(-0.03, 0.03);
+    add(Eigen::Vector3d(c.x() - d * 0.55 + side * 0.83, c.y() - d * 0.83 - side * 0.55,
+                        rng.Uniform(1.7, 2.1)));
+  }
+  const GroundGrid ground(cloud, 13, 0.5);
+  const StemsResult res = DetectStems(StemOptions(), cloud, ground, 500.0);
+  ASSERT_EQ(res.stems.size(), 1u);
+  EXPECT_LT((res.stems[0].centre_xy - c).norm(), 0.05);
+  EXPECT_LT(res.stems[0].lean_deg, 5.0);
+}
+
 }  // namespace
 }  // namespace stemmap::stems
