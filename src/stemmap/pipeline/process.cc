@@ -277,6 +277,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
        {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
+       {"near_stereo_pair_turn_deg", o.dense.near_pair_turn_deg},
        {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});
   WriteJsonAtomic(out_dir / "summary.json", s);
   return r;
