@@ -113,6 +113,10 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   const bool wider_two_sided =
       two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
   const bool confirmed = !s.weak_support || two_sided;
+  // Both sides in most views, agreeing to a pixel, narrower than the points: the cloud took in
+  // what stands beside the stem (a shrub, a sapling). A furrow does not stay tangent across views.
+  const bool narrower_two_sided = two_sided && 2 * f.two_sided_views >= f.tried_views &&
+                                  f.radius_m < r0 && f.radius_m > 0.45 * r0;
   // A fit from one side that came out wider than the points rests on nothing that can check it
   // (an occluder's edge, the slack of a one-sided circle); a confirmed stem keeps the cloud's
   // width.
@@ -125,7 +129,8 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   // silhouettes it found still confirm a stem.
   const bool smeared_width = f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0;
   const bool plausible =
-      f.ok && confirmed && (s.depth_smeared ? smeared_width : near_cloud || wider_two_sided);
+      f.ok && confirmed &&
+      (s.depth_smeared ? smeared_width : near_cloud || wider_two_sided || narrower_two_sided);
   if (plausible) return SilhouetteVerdict::kUse;
   if (f.ok && confirmed && s.depth_smeared) return SilhouetteVerdict::kKeepCloud;
   // A smeared or weakly supported part is a stem only if silhouettes confirm it; so is every

@@ -37,6 +37,15 @@ TEST(JudgeSilhouetteFit, KeepsTheCloudWhenTheFitLockedOntoSomethingElse) {
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
 }
 
+TEST(JudgeSilhouetteFit, NarrowerSilhouettesOnBothSidesInMostViewsOutrankTheCloud) {
+  Case c;
+  c.fit.radius_m = 0.08;  // the cloud took in a shrub beside a 16-cm stem
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.tried_views = 8;  // both sides in only three of eight views: not enough to overrule it
+  c.fit.two_sided_views = 3;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
 TEST(JudgeSilhouetteFit, RequiringSilhouettesDropsWhatNoneConfirms) {
   Case c;
   c.fit.ok = false;

@@ -20,7 +20,7 @@ void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray) {
 bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
                         const std::vector<Eigen::Vector2d>& origins, double huber_m,
                         Eigen::Vector2d* centre, double* radius, double* radius_sd, double* rms_m,
-                        std::vector<double>* weights, const CentrePrior* prior) {
+                        std::vector<double>* weights, const CentrePrior* prior, bool redescend) {
   const size_t n = normals.size();
   if (n < 3) return false;
   // Prior rows (p - c_prior) / sigma, in the rays' units: weight (ray_sigma / sigma)^2.
@@ -34,7 +34,12 @@ bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
   std::vector<double> w(n, 1.0);
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
   Eigen::Matrix3d ata;
-  for (int it = 0; it < 10; ++it) {
+  // Huber first, from the plain least squares, to settle near the bulk of the rays; then Cauchy
+  // (scale twice Huber's), whose weights fall to nothing for rays far off: an edge caught on a
+  // neighbour, a shrub or a nearer stem's side keeps pulling a Huber fit by its full scale.
+  const int kHuberIterations = 10, kIterations = redescend ? 20 : 10;
+  const double cauchy_m = 2.0 * huber_m;
+  for (int it = 0; it < kIterations; ++it) {
     ata = prior_ata;
     Eigen::Vector3d atb = prior_atb;
     for (size_t i = 0; i < n; ++i) {
@@ -46,7 +51,8 @@ bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
     x = ata.ldlt().solve(atb);
     for (size_t i = 0; i < n; ++i) {
       const double e = std::abs(normals[i].dot(x.head<2>() - origins[i]) - x.z());
-      w[i] = e <= huber_m ? 1.0 : huber_m / e;
+      w[i] = it + 1 < kHuberIterations ? (e <= huber_m ? 1.0 : huber_m / e)
+                                       : 1.0 / (1.0 + (e / cauchy_m) * (e / cauchy_m));
     }
   }
   double sq = 0, wsum = 0;

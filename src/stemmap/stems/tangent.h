@@ -109,11 +109,13 @@ struct CentrePrior {
   double ray_sigma_m = 0.005;  // expected ray residual, which sets the prior's relative weight
 };
 
-// Least squares circle tangent to horizontal lines n_i . (p - c_i) = r with Huber weights.
+// Least squares circle tangent to horizontal lines n_i . (p - c_i) = r, weighted by Huber and,
+// with `redescend`, then by Cauchy (scale 2 huber_m) so that a few rays far off do not move it.
 // Returns false when the system is degenerate.
 bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
                         const std::vector<Eigen::Vector2d>& origins, double huber_m,
                         Eigen::Vector2d* centre, double* radius, double* radius_sd, double* rms_m,
-                        std::vector<double>* weights, const CentrePrior* prior = nullptr);
+                        std::vector<double>* weights, const CentrePrior* prior = nullptr,
+                        bool redescend = true);
 
 }  // namespace stemmap::stems

@@ -60,6 +60,26 @@ TEST(Tangent, CircleFromTangentRays) {
   EXPECT_LT(r_sd, 0.003);
 }
 
+// A third of one side's edges caught a shrub 3 cm beyond the stem (rays bent outward): Huber
+// weights alone would still widen the circle by several millimetres; the Cauchy stage does not.
+TEST(Tangent, FarOffRaysDoNotWidenTheCircle) {
+  const Eigen::Vector2d centre(8.0, -1.0);
+  const double radius = 0.12;
+  Rng rng(11);
+  const auto [normals, origins] =
+      TangentRaysFromArc(centre, radius, -0.4, 0.2, 36, 3e-4, rng,
+                         [](int k, int side) { return k % 3 == 0 && side == 1 ? -0.03 : 0.0; });
+  Eigen::Vector2d fitted;
+  double r = 0, r_sd = 0, rms = 0;
+  ASSERT_TRUE(SolveTangentCircle(normals, origins, 0.004, &fitted, &r, &r_sd, &rms, nullptr));
+  EXPECT_NEAR(r, radius, 0.0015);
+  EXPECT_NEAR((fitted - centre).norm(), 0.0, 0.02);
+  double r_huber = 0;
+  ASSERT_TRUE(SolveTangentCircle(normals, origins, 0.004, &fitted, &r_huber, &r_sd, &rms, nullptr,
+                                 nullptr, /*redescend=*/false));
+  EXPECT_GT(r_huber - radius, 0.0015);
+}
+
 // Edge points of a leaning silhouette with 0.3 px of noise and two bands on a neighbour's edge.
 TEST(Tangent, EdgeLineIgnoresStrayBands) {
   Rng rng(5);
@@ -232,9 +252,10 @@ TEST(Tangent, FitsAStemWhoseCloudPartLiesToOneSide) {
   ASSERT_GT(0.13, o.max_sideways_m);
   const TangentFit fit = FitTangentRays(o, views, start, 0.09, 1.37);
   ASSERT_TRUE(fit.ok);
-  // Within a pixel of these 640-px images (two refits from a start 13 cm off).
+  // Radius within a pixel of these 640-px images (1.2 cm at 6 m) from a start 13 cm off; the
+  // depth, from rays over a short arc, within 7 pixels' worth (two refits).
   EXPECT_NEAR(fit.radius_m, radius, 0.012);
-  EXPECT_LT((fit.centre - centre).norm(), 0.06);
+  EXPECT_LT((fit.centre - centre).norm(), 0.09);
   EXPECT_GT(fit.two_sided_views, 10);
 }
 
