@@ -126,8 +126,10 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   }
   // A smeared part's width across the line of sight is rough, but not off by half: a fit beyond
   // half or twice it caught something else (a neighbour, one side of the stem), though the
-  // silhouettes it found still confirm a stem.
-  const bool smeared_width = f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0;
+  // silhouettes it found still confirm a stem. Wider than the points, it must be two-sided like
+  // any other wider fit (a trunk just behind the stem can widen loose silhouettes).
+  const bool smeared_width =
+      f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0 && (f.radius_m <= r0 || two_sided);
   const bool plausible =
       f.ok && confirmed &&
       (s.depth_smeared ? smeared_width : near_cloud || wider_two_sided || narrower_two_sided);

@@ -91,6 +91,11 @@ TEST(JudgeSilhouetteFit, ASmearedStemsFitMustStayWithinHalfToTwiceItsWidth) {
   c.stem.depth_smeared = true;
   c.fit.radius_m = 0.24;  // 1.6 times the smeared width: rough, used
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.rms_m = 2 * c.px_m;  // but not from silhouettes that disagree by two pixels
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.fit.radius_m = 0.12;  // narrower than the points: the smeared width is no check on it
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.rms_m = 0.002;
   c.fit.radius_m = 0.36;  // 2.4 times: a neighbour's edge; the silhouettes still confirm a stem
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
   c.fit.radius_m = 0.03;  // a fifth of it: one side of the stem and a furrow
