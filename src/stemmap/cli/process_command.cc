@@ -37,9 +37,9 @@ void AddProcessCommand(CLI::App& app) {
                   "(fitted to that slice)")
       ->check(CLI::IsMember({"tangent", "slice", "circle"}))
       ->capture_default_str();
-  sub->add_flag("--require-silhouette", opt->require_silhouette,
-                "Drop stems whose silhouettes were not found instead of keeping them flagged "
-                "no_silhouette");
+  sub->add_flag("--require-silhouette,!--keep-unconfirmed", opt->require_silhouette,
+                "Drop cloud parts whose silhouettes were not found (default); "
+                "--keep-unconfirmed keeps them, flagged no_silhouette");
   sub->add_option("--mask-model", opt->mask.model,
                   "Optional learned trunk segmentation network (ONNX, or any format OpenCV's dnn "
                   "reads); see docs/mask-model.md")

@@ -135,9 +135,11 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
       (s.depth_smeared ? smeared_width : near_cloud || wider_two_sided || narrower_two_sided);
   if (plausible) return SilhouetteVerdict::kUse;
   if (f.ok && confirmed && s.depth_smeared) return SilhouetteVerdict::kKeepCloud;
-  // A smeared or weakly supported part is a stem only if silhouettes confirm it; so is every
-  // part when silhouettes are required.
-  if (o.require_silhouette || s.depth_smeared || s.weak_support) return SilhouetteVerdict::kDrop;
+  // A smeared or weakly supported part is a stem only if silhouettes confirm it; when
+  // silhouettes are required (the default), a part where none were found is no stem either.
+  if ((o.require_silhouette && !f.ok) || s.depth_smeared || s.weak_support) {
+    return SilhouetteVerdict::kDrop;
+  }
   return SilhouetteVerdict::kKeepCloud;
 }
 

@@ -22,9 +22,9 @@ struct ProcessOptions {
   double plot_radius_m = 10.0;  // plot figures count stems within this radius
   double min_dbh_cm = 7.0;      // and at least this thick
   // Drop cloud clusters whose silhouettes cannot be found in any view (a trunk shows two edges,
-  // a leaf clump rarely does). Off by default: on the simulated natural plots it removed as many
-  // true stems as false ones (see benchmarks.md).
-  bool require_silhouette = false;
+  // a leaf clump rarely does). On the simulated plots it removes only false stems since the
+  // silhouette fit's Cauchy weights (see benchmarks.md, e66b3b3).
+  bool require_silhouette = true;
   // Silhouettes on one side only cannot tell how far the stem reaches on the other: such a fit
   // wider than this many times the cloud's width keeps the cloud's (see benchmarks.md).
   double one_sided_max_over_cloud = 1.1;

@@ -33,8 +33,15 @@ TEST(JudgeSilhouetteFit, KeepsTheCloudWhenTheFitLockedOntoSomethingElse) {
   Case c;
   c.fit.radius_m = 0.06;  // far narrower than the points: a furrow or a neighbour's edge
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
+TEST(JudgeSilhouetteFit, APartWithoutSilhouettesIsDroppedUnlessUnconfirmedPartsAreKept) {
+  Case c;
   c.fit.ok = false;
-  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+  ProcessOptions keep;
+  keep.require_silhouette = false;
+  EXPECT_EQ(JudgeSilhouetteFit(keep, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
 }
 
 TEST(JudgeSilhouetteFit, NarrowerSilhouettesOnBothSidesInMostViewsOutrankTheCloud) {
