@@ -22,8 +22,8 @@ struct ProcessOptions {
   double plot_radius_m = 10.0;  // plot figures count stems within this radius
   double min_dbh_cm = 7.0;      // and at least this thick
   // Drop cloud clusters whose silhouettes cannot be found in any view (a trunk shows two edges,
-  // a leaf clump rarely does). On the simulated plots it removes only false stems since the
-  // silhouette fit's Cauchy weights (see benchmarks.md, e66b3b3).
+  // a leaf clump rarely does). On the simulated plots it removes only false stems (see
+  // benchmarks.md); --keep-unconfirmed turns it off.
   bool require_silhouette = true;
   // Silhouettes on one side only cannot tell how far the stem reaches on the other: such a fit
   // wider than this many times the cloud's width keeps the cloud's (see benchmarks.md).

@@ -61,7 +61,7 @@ TEST(Tangent, CircleFromTangentRays) {
 }
 
 // A third of one side's edges caught a shrub 3 cm beyond the stem (rays bent outward): Huber
-// weights alone would still widen the circle by several millimetres; the Cauchy stage does not.
+// weights alone would still widen the circle by about 2 mm; the Cauchy stage does not.
 TEST(Tangent, FarOffRaysDoNotWidenTheCircle) {
   const Eigen::Vector2d centre(8.0, -1.0);
   const double radius = 0.12;
