@@ -259,13 +259,12 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
       return brightness_edge(dir, dir < 0 ? xl : xr, x_edge);
     }
     const double tau = 0.5 * (stem + bg);
-    int i = static_cast<int>(std::lround(xm));
-    while (i + dir >= 0 && i + dir < width && smooth[i + dir] <= tau) i += dir;
-    if (i + dir < 0 || i + dir >= width) return false;
-    // Crossing between i (below) and i + dir (above), linearly interpolated.
-    const double a = smooth[i], b = smooth[i + dir];
-    const double f = b > a ? (tau - a) / (b - a) : 0.5;
-    *x_edge = x_begin + i + dir * f;
+    const int run = std::clamp(static_cast<int>(0.05 * (xr - xl)), 3, 10);
+    double x;
+    if (!FirstSustainedCrossing(smooth, static_cast<int>(std::lround(xm)), dir, tau, run, &x)) {
+      return false;
+    }
+    *x_edge = x_begin + x;
     return true;
   };
   edges.left = scan(-1, out_left, &edges.x_left);
@@ -279,6 +278,27 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
 }
 
 }  // namespace
+
+bool FirstSustainedCrossing(const std::vector<double>& profile, int start, int dir, double tau,
+                            int run, double* x) {
+  const int n = static_cast<int>(profile.size());
+  auto inside = [&](int i) { return i >= 0 && i < n; };
+  auto sustained = [&](int i) {
+    double sum = 0;
+    int count = 0;
+    for (int q = 1; q <= run && inside(i + q * dir); ++q) sum += profile[i + q * dir], ++count;
+    return count > 0 && sum / count > tau;
+  };
+  if (!inside(start)) return false;
+  int i = start;
+  while (inside(i + dir) && (profile[i + dir] <= tau || !sustained(i))) i += dir;
+  if (!inside(i + dir)) return false;
+  // Crossing between i (below) and i + dir (above), linearly interpolated.
+  const double a = profile[i], b = profile[i + dir];
+  const double f = b > a ? (tau - a) / (b - a) : 0.5;
+  *x = i + dir * f;
+  return true;
+}
 
 bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, double y0,
                  int min_points, double* x_at_y0) {

@@ -93,6 +93,13 @@ void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z);
 
+// Where a disagreement profile first rises above tau going from `start` in direction dir (+1 or
+// -1) and stays above it on average over the next `run` samples: bark that the warp misaligns on
+// a near stem makes short spikes inside it, what lies behind a long run. The crossing is
+// interpolated between samples. False when the profile never does.
+bool FirstSustainedCrossing(const std::vector<double>& profile, int start, int dir, double tau,
+                            int run, double* x);
+
 // Column at row y0 of a silhouette line through edge points (y, x) found in bands of rows: a
 // trunk's silhouette is straight over a few decimetres (taper and lean are smooth), so a robust
 // line (Theil-Sen start, then least squares on the points within 3 MADs) averages the bands'

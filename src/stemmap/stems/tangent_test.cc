@@ -102,6 +102,23 @@ TEST(Tangent, EdgeLineIgnoresStrayBands) {
 
 // Rays from a 2-cm stretch of the arm barely fix the depth: the prior on the centre holds it,
 // while the rays still set the bearing and the radius.
+TEST(Tangent, SilhouetteCrossingSkipsShortSpikesInsideTheStem) {
+  // Low inside the stem (samples 0-29) but for a 2-sample spike at 10-11, high from 30 on.
+  std::vector<double> profile(50, 2.0);
+  profile[10] = profile[11] = 30.0;
+  for (int i = 30; i < 50; ++i) profile[i] = 40.0;
+  profile[29] = 12.0;
+  double x = 0;
+  ASSERT_TRUE(FirstSustainedCrossing(profile, 0, 1, 21.0, 5, &x));
+  EXPECT_NEAR(x, 29 + (21.0 - 12.0) / (40.0 - 12.0), 1e-9);
+  // Leftward from 25 only the spike rises: no silhouette on that side.
+  EXPECT_FALSE(FirstSustainedCrossing(profile, 25, -1, 21.0, 5, &x));
+  // A one-sample run takes the spike; a profile that never rises has no crossing.
+  ASSERT_TRUE(FirstSustainedCrossing(profile, 0, 1, 21.0, 1, &x));
+  EXPECT_LT(x, 10.0);
+  EXPECT_FALSE(FirstSustainedCrossing(std::vector<double>(20, 1.0), 5, 1, 21.0, 5, &x));
+}
+
 TEST(Tangent, CentrePriorHoldsTheDepth) {
   const Eigen::Vector2d centre(10.0, 0.0);
   const double radius = 0.18;
