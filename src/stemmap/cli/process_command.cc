@@ -26,7 +26,7 @@ void AddProcessCommand(CLI::App& app) {
   }
   sub->add_option("--plot-radius", opt->plot_radius_m, "Plot radius for the plot figures (m)")
       ->capture_default_str();
-  sub->add_option("--min-dbh", opt->min_dbh_cm, "Smallest DBH counted in the figures (cm)")
+  sub->add_option("--min-dbh", opt->min_dbh_cm, "Smallest DBH listed and counted (cm)")
       ->capture_default_str();
   sub->add_option("--breast-height", opt->stems.breast_height_m,
                   "Height of the DBH above the ground at the stem (m)")

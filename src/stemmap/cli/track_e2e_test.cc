@@ -112,6 +112,7 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   const nlohmann::json summary = ReadJsonFile(dir / "out" / "summary.json");
   EXPECT_EQ(summary["plot"]["stems"].get<int>(), r.figures.stems);
   EXPECT_GT(r.figures.basal_area_m2_per_ha, 0.0);
+  for (const stems::Stem& s : r.stems) EXPECT_GE(100 * s.dbh_m, o.min_dbh_cm);
   // A short, small clip: most near trees found, none far off.
   eval::EvaluateOptions eo;
   eo.plot_radius_m = 8.0;

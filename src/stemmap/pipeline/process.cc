@@ -255,6 +255,10 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   timing["stems_s"] = lap();
   RefineWithTangentRays(o, tr, std::move(tr.keyframe_gray_full), din.images, &sr.stems);
   timing["tangent_rays_s"] = lap();
+  // Stems below the calliper threshold are not trees of the list (a fit that closed on a twig).
+  const size_t below =
+      std::erase_if(sr.stems, [&](const stems::Stem& s) { return 100 * s.dbh_m < o.min_dbh_cm; });
+  if (below > 0) spdlog::info("stems: {} below {:.0f} cm DBH left out", below, o.min_dbh_cm);
 
   ProcessResult r;
   r.stems = sr.stems;
