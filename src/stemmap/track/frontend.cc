@@ -79,8 +79,8 @@ struct Tracker {
   }
 };
 
-// Line segments at half resolution (trunk edges are long, so little is lost), kept when long and
-// within a few degrees of the image vertical.
+// Line segments at half resolution (a trunk edge is still a few pixels long there), kept when
+// longer than segment_min_length and within a few degrees of the image vertical.
 std::vector<cv::Vec4f> VerticalSegments(const FrontendOptions& o, const cv::Mat& gray,
                                         cv::LineSegmentDetector* lsd) {
   cv::Mat half;

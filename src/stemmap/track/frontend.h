@@ -24,8 +24,10 @@ struct FrontendOptions {
   int orb_features = 800;                // per keyframe, for loop closure
   bool keep_keyframe_images = false;     // keep each keyframe's BGR image for later stages
   double dark_mean_luma = 20.0;          // frames darker than this (0-255) count as dark
-  double segment_min_length = 0.2;       // vertical segments: shortest, as a share of height
-  double segment_max_tilt_deg = 15.0;    // and furthest from the image vertical
+  // Vertical segments: shortest, as a share of height. Short ones count: far trunks, partly hidden
+  // and low in contrast, give only pieces, and it takes many trunks to average out their leans.
+  double segment_min_length = 0.04;
+  double segment_max_tilt_deg = 15.0;  // and furthest from the image vertical
   void Check() const;
 };
 
