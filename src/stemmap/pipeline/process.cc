@@ -21,6 +21,9 @@ void ProcessOptions::Check() const {
   if (!mask.model.empty()) mask.Check();
   if (!(plot_radius_m > 0)) throw InputError("--plot-radius must be positive");
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
+  if (!(one_sided_min_cloud_radius_m >= 0)) {
+    throw InputError("the cloud radius a one-sided fit may widen must not be negative");
+  }
   if (!(one_sided_max_over_cloud >= 1)) {
     throw InputError("a one-sided fit's bound over the cloud's width must be at least 1");
   }
@@ -122,7 +125,12 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   // width.
   const bool one_sided = f.two_sided_views < 3;
   if (f.ok && confirmed && one_sided && f.radius_m > o.one_sided_max_over_cloud * r0) {
-    return SilhouetteVerdict::kKeepCloud;
+    // Unless it stays tangent to one circle across views to about a pixel, on a part the cloud
+    // saw as a real stem: then a nearer stem hid the rest of it from the stereo pairs, and the
+    // one side seen is a better width than the points.
+    const bool tight = f.rms_m < 1.2 * px_m && r0 >= o.one_sided_min_cloud_radius_m &&
+                       f.radius_m < o.tangent.WidestFitScale() * r0;
+    return tight ? SilhouetteVerdict::kUse : SilhouetteVerdict::kKeepCloud;
   }
   // A smeared part's width across the line of sight is rough, but not off by half: a fit beyond
   // half or twice it caught something else (a neighbour, one side of the stem), though the
@@ -288,6 +296,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"dbh_method", o.stems.dbh_method},
        {"require_silhouette", o.require_silhouette},
        {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
+       {"one_sided_min_cloud_radius_m", o.one_sided_min_cloud_radius_m},
        {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
        {"near_stereo_pair_turn_deg", o.dense.near_pair_turn_deg},

@@ -26,8 +26,11 @@ struct ProcessOptions {
   // benchmarks.md); --keep-unconfirmed turns it off.
   bool require_silhouette = true;
   // Silhouettes on one side only cannot tell how far the stem reaches on the other: such a fit
-  // wider than this many times the cloud's width keeps the cloud's (see benchmarks.md).
+  // wider than this many times the cloud's width keeps the cloud's (see benchmarks.md), unless
+  // its rays agree to about a pixel and the cloud saw at least this radius (a stem half hidden by
+  // a nearer one, not a twig that one loose side widened).
   double one_sided_max_over_cloud = 1.1;
+  double one_sided_min_cloud_radius_m = 0.075;
   // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
   // camera are used instead of tracking again; empty: track the video.
   std::filesystem::path from_track;

@@ -82,14 +82,16 @@ TEST(JudgeSilhouetteFit, WiderTwoSidedSilhouettesOutrankTheCloud) {
 TEST(JudgeSilhouetteFit, AOneSidedFitCannotWidenTheCloud) {
   Case c;
   c.fit.two_sided_views = 2;
-  c.fit.radius_m = 0.2;  // a third wider than the points, from one side: unchecked
+  c.fit.radius_m = 0.2;      // a third wider than the points, from one side
+  c.fit.rms_m = 2 * c.px_m;  // with rays two pixels apart: unchecked
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
   c.stem.depth_smeared = true;  // a stem all the same: kept with the cloud's width, not dropped
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
   c.fit.radius_m = 0.145;  // narrower (the cloud's part of a stem can be smeared wider): used
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
-  c.fit.radius_m = 0.2;  // both sides in three views: the wider fit is checked and used
+  c.fit.radius_m = 0.2;  // both sides in three views, agreeing: the wider fit is checked and used
   c.fit.two_sided_views = 3;
+  c.fit.rms_m = 0.002;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
 }
 
@@ -109,6 +111,16 @@ TEST(JudgeSilhouetteFit, ASmearedStemsFitMustStayWithinHalfToTwiceItsWidth) {
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
   c.fit.ok = false;  // no silhouettes at all: a smeared part is not a stem
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+}
+
+TEST(JudgeSilhouetteFit, AOneSidedFitTangentToOneCircleWidensAStemTheCloudSawInPart) {
+  Case c;
+  c.fit.two_sided_views = 0;  // a nearer stem hides the other side in every view
+  c.fit.radius_m = 0.2;       // a third wider than the points, its rays within half a pixel
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.stem.dbh_slice_m = 0.10;  // a part the cloud saw as a pole: one side cannot widen it
+  c.fit.radius_m = 0.08;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
 }
 
 TEST(ProcessOptions, AOneSidedBoundBelowTheCloudIsRejected) {
