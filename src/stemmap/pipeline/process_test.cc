@@ -128,6 +128,9 @@ TEST(ProcessOptions, AOneSidedBoundBelowTheCloudIsRejected) {
   EXPECT_NO_THROW(o.Check());
   o.one_sided_max_over_cloud = 0.9;  // would replace fits narrower than the cloud too
   EXPECT_THROW(o.Check(), InputError);
+  o = ProcessOptions();
+  o.one_sided_min_cloud_radius_m = -0.01;
+  EXPECT_THROW(o.Check(), InputError);
 }
 
 // The widest tangent start supposes 2.2 times the cloud's width; a fit that grew a little
