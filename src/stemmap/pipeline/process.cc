@@ -47,6 +47,26 @@ PlotFigures ComputePlotFigures(const std::vector<stems::Stem>& stems, double plo
   return f;
 }
 
+nlohmann::json PlotSummaryJson(const PlotFigures& figures, int listed_stems, double plot_radius_m,
+                               double min_dbh_cm) {
+  nlohmann::json warnings = nlohmann::json::array();
+  if (listed_stems == 0) {
+    warnings.push_back(
+        fmt::format("no stem of {:.0f} cm or more found, so the plot figures are empty: does the "
+                    "video show the trunks at breast height?",
+                    min_dbh_cm));
+  } else if (figures.stems == 0) {
+    warnings.push_back(fmt::format("no stem found within the {:.1f}-m plot radius", plot_radius_m));
+  }
+  return {{"radius_m", plot_radius_m},
+          {"min_dbh_cm", min_dbh_cm},
+          {"stems", figures.stems},
+          {"stems_per_ha", figures.stems_per_ha},
+          {"basal_area_m2_per_ha", figures.basal_area_m2_per_ha},
+          {"qmd_cm", figures.qmd_cm},
+          {"warnings", warnings}};
+}
+
 void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::Stem>& stems,
                    double breast_height_m, double plot_radius_m) {
   std::string s = "tree_id,x_m,y_m,z_m,dbh_cm,dbh_sd_cm,distance_m,azimuth_deg,n_views,flags\n";
@@ -274,12 +294,9 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   WriteTreesCsv(out_dir / "trees.csv", r.stems, o.stems.breast_height_m, o.plot_radius_m);
   WriteStemDetails(out_dir / "stems_detail.csv", r.stems);
   nlohmann::json& s = r.summary;
-  s["plot"] = {{"radius_m", o.plot_radius_m},
-               {"min_dbh_cm", o.min_dbh_cm},
-               {"stems", r.figures.stems},
-               {"stems_per_ha", r.figures.stems_per_ha},
-               {"basal_area_m2_per_ha", r.figures.basal_area_m2_per_ha},
-               {"qmd_cm", r.figures.qmd_cm}};
+  s["plot"] =
+      PlotSummaryJson(r.figures, static_cast<int>(r.stems.size()), o.plot_radius_m, o.min_dbh_cm);
+  for (const auto& w : s["plot"]["warnings"]) spdlog::warn("{}", w.get<std::string>());
   s["track"] = tr.summary;
   s["dense"] = dr.summary;
   s["stems"] = sr.Summary();

@@ -45,6 +45,11 @@ struct PlotFigures {
 PlotFigures ComputePlotFigures(const std::vector<stems::Stem>& stems, double plot_radius_m,
                                double min_dbh_cm);
 
+// summary.json's "plot" object: the figures, and `warnings` when the list says less than a plot
+// holds (no stem at all: not a stand at breast height, or one the method could not see).
+nlohmann::json PlotSummaryJson(const PlotFigures& figures, int listed_stems, double plot_radius_m,
+                               double min_dbh_cm);
+
 struct ProcessResult {
   std::vector<stems::Stem> stems;
   PlotFigures figures;
