@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 
@@ -105,6 +106,120 @@ TEST(Video, MissingAndCorruptFilesAreInputErrors) {
   const fs::path junk = TestDir() / "junk.mp4";
   WriteFileAtomic(junk, std::string(4096, 'x'));
   EXPECT_THROW(VideoReader{junk}, InputError);
+}
+
+// Phones store portrait video as landscape frames plus a display rotation, and many record HEVC
+// in .mov; FFmpeg's command-line tool makes such files from ours.
+bool HaveFfmpegTool() { return std::system("ffmpeg -hide_banner -version > /dev/null 2>&1") == 0; }
+
+void RunFfmpeg(const fs::path& in, const std::string& args, const fs::path& out) {
+  const std::string cmd = "ffmpeg -hide_banner -loglevel error -y -i '" + in.string() + "' " +
+                          args + " '" + out.string() + "'";
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+}
+
+fs::path WriteClip(const fs::path& path, int frames) {
+  VideoWriterOptions wo;
+  wo.width = 160;
+  wo.height = 96;
+  wo.fps = 10;
+  wo.bitrate_mbps = 1.0;
+  VideoWriter writer(path, wo);
+  for (int i = 0; i < frames; ++i) writer.Write(TestFrame(wo.width, wo.height, i));
+  writer.Close();
+  return path;
+}
+
+double MeanAbsDiff(const cv::Mat& a, const cv::Mat& b) {
+  return cv::norm(a, b, cv::NORM_L1) / static_cast<double>(a.total() * a.channels());
+}
+
+// The reader shows a rotated file as FFmpeg's own player does (its tool rotates on decode).
+TEST(Video, DisplayRotationTurnsFramesAsPlayersDo) {
+  if (!HaveFfmpegTool()) GTEST_SKIP() << "the ffmpeg tool is not installed";
+  const fs::path clip = WriteClip(TestDir() / "landscape.mp4", 10);
+  for (const int tag : {90, 180, 270}) {
+    const fs::path turned = TestDir() / ("turned" + std::to_string(tag) + ".mp4");
+    RunFfmpeg(clip, "-c copy -metadata:s:v:0 rotate=" + std::to_string(tag), turned);
+    const fs::path raw = TestDir() / ("turned" + std::to_string(tag) + ".bgr");
+    RunFfmpeg(turned, "-f rawvideo -pix_fmt bgr24", raw);
+    const std::string shown = ReadFileToString(raw);
+    VideoReaderOptions ro;
+    ro.full_gray = true;
+    VideoReader reader(turned, ro);
+    const bool portrait = tag != 180;
+    EXPECT_EQ(reader.info().rotation_deg % 180, portrait ? 90 : 0) << tag;
+    ASSERT_EQ(reader.info().width, portrait ? 96 : 160);
+    ASSERT_EQ(reader.info().height, portrait ? 160 : 96);
+    EXPECT_EQ(reader.info().full_height, portrait ? 160 : 96);
+    const size_t frame_bytes = 96 * 160 * 3;
+    ASSERT_EQ(shown.size(), 10 * frame_bytes);
+    int n = 0;
+    while (auto f = reader.Next()) {
+      const cv::Mat expected(reader.info().height, reader.info().width, CV_8UC3,
+                             const_cast<char*>(shown.data() + n * frame_bytes));
+      EXPECT_LT(MeanAbsDiff(f->bgr, expected), 2.0) << "rotate=" << tag << " frame " << n;
+      EXPECT_EQ(f->gray_full.size(), expected.size());
+      ++n;
+    }
+    EXPECT_EQ(n, 10);
+  }
+}
+
+TEST(Video, HevcInMovDecodes) {
+  if (!HaveFfmpegTool()) GTEST_SKIP() << "the ffmpeg tool is not installed";
+  const fs::path clip = WriteClip(TestDir() / "h264.mp4", 12);
+  const fs::path hevc = TestDir() / "hevc.mov";
+  RunFfmpeg(clip, "-c:v libx265 -x265-params log-level=none -pix_fmt yuv420p", hevc);
+  VideoReader reader(hevc);
+  EXPECT_EQ(reader.info().codec, "hevc");
+  int n = 0;
+  double last_t = -1;
+  while (auto f = reader.Next()) {
+    EXPECT_GT(f->t_s, last_t);
+    last_t = f->t_s;
+    EXPECT_LT(MeanAbsDiff(f->bgr, TestFrame(160, 96, n)), 6.0) << "frame " << n;
+    ++n;
+  }
+  EXPECT_EQ(n, 12);
+  EXPECT_NEAR(last_t, 1.1, 1e-6);
+}
+
+// A copy cut short (a card pulled mid-write): with the index at the end nothing can be read and
+// the file is refused; with the index first (as some phones write) the frames before the cut are
+// read and the rest is lost without a crash.
+TEST(Video, TruncatedFilesAreRefusedOrReadUpToTheCut) {
+  // Textured frames, so that the cut falls among the frames rather than in the header.
+  const fs::path clip = TestDir() / "whole.mp4";
+  {
+    VideoWriterOptions wo;
+    wo.width = 160;
+    wo.height = 96;
+    wo.fps = 10;
+    VideoWriter writer(clip, wo);
+    cv::RNG rng(7);
+    for (int i = 0; i < 30; ++i) {
+      cv::Mat img(wo.height, wo.width, CV_8UC3);
+      rng.fill(img, cv::RNG::UNIFORM, 0, 255);
+      writer.Write(img);
+    }
+    writer.Close();
+  }
+  auto cut = [](const fs::path& from, double keep) {
+    const std::string bytes = ReadFileToString(from);
+    const fs::path to = TestDir() / (from.stem().string() + "_cut.mp4");
+    WriteFileAtomic(to, bytes.substr(0, static_cast<size_t>(keep * bytes.size())));
+    return to;
+  };
+  EXPECT_THROW(VideoReader{cut(clip, 0.6)}, InputError);
+  if (!HaveFfmpegTool()) GTEST_SKIP() << "the ffmpeg tool is not installed";
+  const fs::path indexed_first = TestDir() / "faststart.mp4";
+  RunFfmpeg(clip, "-c copy -movflags +faststart", indexed_first);
+  VideoReader reader(cut(indexed_first, 0.6));
+  int n = 0;
+  while (reader.Next()) ++n;
+  EXPECT_GT(n, 5);
+  EXPECT_LT(n, 30);
 }
 
 TEST(Video, WriterRejectsOddSize) {
