@@ -3,9 +3,11 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <utility>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -193,9 +195,8 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
   const stems::TangentViews views{&camera, &tr.keyframes, &gray, &occluders};
   const stems::TangentOptions topt =
       o.tangent.ForImageScale(static_cast<double>(camera.width) / tr.camera.width);
-  int fitted = 0, dropped = 0;
-  std::vector<stems::Stem> kept;
-  for (stems::Stem& s : *stems) {
+  // The silhouettes' verdict on one stem, and the stem as then reported.
+  auto refine = [&](stems::Stem s) {
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
     const double r0 = CloudRadius(s);
     const stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
@@ -206,18 +207,10 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
         s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
         f.tried_views, 1000 * f.rms_m);
     const SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m);
-    if (verdict == SilhouetteVerdict::kDrop) {
-      ++dropped;
-      continue;
+    if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == "tangent") {
+      s.flags.push_back(f.ok && f.two_sided_views < 3 ? "one_sided" : "no_silhouette");
     }
-    if (verdict == SilhouetteVerdict::kKeepCloud) {
-      if (o.stems.dbh_method == "tangent") {
-        s.flags.push_back(f.ok && f.two_sided_views < 3 ? "one_sided" : "no_silhouette");
-      }
-      kept.push_back(s);
-      continue;
-    }
-    ++fitted;
+    if (verdict != SilhouetteVerdict::kUse) return std::pair{verdict, std::move(s)};
     // The silhouettes' views replace the cloud's count.
     std::erase(s.flags, std::string("few_views"));
     if (f.views < 4) s.flags.push_back("few_views");
@@ -236,10 +229,40 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }
-    kept.push_back(s);
+    return std::pair{verdict, std::move(s)};
+  };
+  int fitted = 0, dropped = 0, from_cores = 0;
+  std::vector<stems::Stem> kept;
+  for (stems::Stem& part : *stems) {
+    std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
+    auto [verdict, s] = refine(std::move(part));
+    if (verdict != SilhouetteVerdict::kDrop) {
+      if (verdict == SilhouetteVerdict::kUse) ++fitted;
+      kept.push_back(std::move(s));
+      continue;
+    }
+    ++dropped;
+    // No silhouette fits a smeared part as a whole: it may be stems one behind another. Each
+    // dense core is a stem when its own silhouettes fit it from both sides, clear of the stems
+    // kept so far.
+    for (stems::Stem& core : cores) {
+      auto [core_verdict, c] = refine(std::move(core));
+      if (core_verdict != SilhouetteVerdict::kUse || std::ranges::count(c.flags, "one_sided")) {
+        continue;
+      }
+      const bool overlaps = std::ranges::any_of(kept, [&](const stems::Stem& k) {
+        return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
+      });
+      if (overlaps) continue;
+      ++fitted;
+      ++from_cores;
+      kept.push_back(std::move(c));
+    }
   }
-  spdlog::info("stems: tangent rays fitted {} of {} stems; {} parts without silhouettes dropped",
-               fitted, stems->size(), dropped);
+  spdlog::info(
+      "stems: tangent rays fitted {} of {} stems ({} from the cores of smeared parts); {} parts "
+      "without silhouettes dropped",
+      fitted, stems->size(), from_cores, dropped);
   *stems = std::move(kept);
 }
 

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <map>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <set>
 
 #include "stemmap/core/error.h"
@@ -241,6 +242,171 @@ std::vector<std::vector<int>> SplitByBearing(const StemOptions& o,
   return out;
 }
 
+// The band's points with their heights above the ground.
+struct Band {
+  const std::vector<const dense::CloudPoint*>& points;
+  const std::vector<double>& height_m;
+};
+
+// One part of the band as a stem: centre, widths, lean and support; nullopt (counted in `tally`)
+// when it is no stem. A `smeared` part is measured across the line of sight whatever its spread
+// along it (a core of a smeared part: its depth is as noisy as the whole's).
+std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::vector<int>& m,
+                                const GroundGrid& ground, double depth_focal_px, bool smeared,
+                                StemsResult* tally) {
+  std::vector<Eigen::Vector2d> all_xy;
+  for (int i : m) all_xy.push_back(b.points[i]->world.head<2>().cast<double>());
+  Eigen::Vector2d c0;
+  double r0 = 0, rms0 = 0;
+  // A far stem's points are smeared along the line of sight (more than a trunk's face is deep),
+  // and a circle through them means nothing; its width across the line of sight still does.
+  Eigen::Vector2d c_across;
+  double r_across = 0, along_m = 0;
+  AcrossWidthCircle(all_xy, &c_across, &r_across, &along_m);
+  const bool circle_ok = !smeared && along_m < 2 * r_across + o.max_depth_smear_m &&
+                         FitCircle(all_xy, &c0, &r0, &rms0) && 2 * r0 >= o.min_diameter_m &&
+                         2 * r0 <= o.max_diameter_m;
+  if (!circle_ok) c0 = c_across, r0 = r_across;
+  if (2 * r0 < o.min_diameter_m || 2 * r0 > o.max_diameter_m) {
+    ++tally->rejected_size;
+    spdlog::debug(
+        "stems: part of {} points at ({:.2f}, {:.2f}) rejected: diameter {:.2f} m (ground "
+        "{:.2f})",
+        m.size(), c0.x(), c0.y(), 2 * r0, ground.Height(c0.x(), c0.y()));
+    return std::nullopt;
+  }
+  // Verticality: centroids of three sub-slices of the band on one near-vertical line. Only
+  // points near the stem's circle count: clutter joined to the part at one height (smeared
+  // edges of a near trunk, a branch) would drag that sub-slice's centroid away.
+  // A sub-slice with a tenth of the best one's points holds no surface, only stray points (a
+  // near stem's top is out of view).
+  const double third = (o.band_high_m - o.band_low_m) / 3;
+  const double core_m = r0 + 0.25;
+  std::array<Eigen::Vector3d, 3> sum;
+  std::array<int, 3> cnt = {0, 0, 0};
+  sum.fill(Eigen::Vector3d::Zero());
+  for (int i : m) {
+    const Eigen::Vector2d xy(b.points[i]->world.x(), b.points[i]->world.y());
+    const int s = static_cast<int>(std::floor((b.height_m[i] - o.band_low_m) / third));
+    if ((xy - c0).norm() > core_m || s < 0 || s > 2) continue;
+    sum[s] += Eigen::Vector3d(xy.x(), xy.y(), b.height_m[i]);
+    ++cnt[s];
+  }
+  const int most = *std::ranges::max_element(cnt);
+  std::vector<Eigen::Vector3d> cent;
+  for (int s = 0; s < 3; ++s) {
+    if (cnt[s] >= 5 && 10 * cnt[s] >= most) cent.push_back(sum[s] / cnt[s]);
+  }
+  double lean_deg = 90.0;
+  if (cent.size() >= 2) {
+    const Eigen::Vector3d d = cent.back() - cent.front();
+    lean_deg = std::atan2(d.head<2>().norm(), std::abs(d.z())) * 180.0 / M_PI;
+  }
+  if (lean_deg > o.max_lean_deg) {
+    ++tally->rejected_vertical;
+    spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: lean {:.1f}° ({} sub-slices{})",
+                  c0.x(), c0.y(), lean_deg, cent.size(),
+                  cent.size() >= 2
+                      ? fmt::format(", ({:.2f}, {:.2f}, {:.2f}) to ({:.2f}, {:.2f}, "
+                                    "{:.2f})",
+                                    cent.front().x(), cent.front().y(), cent.front().z(),
+                                    cent.back().x(), cent.back().y(), cent.back().z())
+                      : "");
+    return std::nullopt;
+  }
+  // Breast-height slice.
+  std::vector<Eigen::Vector2d> slice;
+  std::set<int> views;
+  double half = o.slice_half_m;
+  for (int widen = 0; widen < 3 && slice.size() < 15; ++widen, half *= 2) {
+    slice.clear();
+    views.clear();
+    for (int i : m) {
+      if (std::abs(b.height_m[i] - o.breast_height_m) > half) continue;
+      slice.push_back(b.points[i]->world.head<2>().cast<double>());
+      views.insert(b.points[i]->keyframe);
+    }
+  }
+  if (slice.size() < 8) return std::nullopt;
+  const double support_m2 =
+      depth_focal_px > 0 ? slice.size() * c0.squaredNorm() / (depth_focal_px * depth_focal_px)
+                         : o.min_slice_support_m2;
+  Stem s;
+  if (support_m2 < o.min_slice_support_m2) {
+    if (support_m2 < o.weak_support_share * o.min_slice_support_m2) {
+      ++tally->rejected_size;
+      spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: {} slice points", c0.x(), c0.y(),
+                    slice.size());
+      return std::nullopt;
+    }
+    s.weak_support = true;
+  }
+  double r = r0, rms = rms0;
+  Eigen::Vector2d c = c0;
+  if (!FitCircle(slice, &c, &r, &rms) || 2 * r > o.max_diameter_m) {
+    c = c0;
+    r = r0;
+  }
+  s.dbh_circle_m = 2 * r;
+  s.dbh_slice_m = SliceWidth(slice, c);
+  if (!circle_ok) {
+    AcrossWidthCircle(slice, &c, &r);
+    s.dbh_circle_m = s.dbh_slice_m = 2 * r;
+    s.depth_smeared = true;
+  }
+  s.pass_through = PassThroughRatio(b.points, c, r);
+  if (s.pass_through > o.free_space_veto) {
+    ++tally->vetoed_free_space;
+    spdlog::debug("stems: part at ({:.2f}, {:.2f}) vetoed: {:.0f}% of rays pass through", c.x(),
+                  c.y(), 100 * s.pass_through);
+    return std::nullopt;
+  }
+  s.centre_xy = c;
+  s.ground_z_m = ground.Height(c.x(), c.y());
+  s.dbh_m = o.dbh_method == "circle" ? s.dbh_circle_m : s.dbh_slice_m;  // tangent: later
+  s.dbh_sd_m = rms;
+  s.n_points = static_cast<int>(slice.size());
+  s.n_views = static_cast<int>(views.size());
+  s.lean_deg = lean_deg;
+  if (s.n_views < 3) s.flags.push_back("few_views");
+  return s;
+}
+
+// A smeared part split again on denser cells: stems one behind another that depth noise joined
+// stand out as dense cores. A core still smeared is split again on denser cells still. Empty
+// when no density splits the part in two or more.
+std::vector<std::vector<int>> SplitOnDenserCells(const StemOptions& o,
+                                                 const std::vector<const dense::CloudPoint*>& band,
+                                                 const std::vector<int>& part, int min_count) {
+  for (; min_count <= 32 * o.min_cell_points; min_count *= 2) {
+    std::vector<std::vector<int>> subs;
+    for (std::vector<int>& sub : SplitIntoParts(o, band, part, min_count)) {
+      if (static_cast<int>(sub.size()) >= o.min_points) subs.push_back(std::move(sub));
+    }
+    if (subs.empty()) break;
+    if (subs.size() < 2) continue;
+    std::vector<std::vector<int>> cores;
+    for (std::vector<int>& sub : subs) {
+      std::vector<Eigen::Vector2d> xy;
+      for (int i : sub) xy.push_back(band[i]->world.head<2>().cast<double>());
+      Eigen::Vector2d c;
+      double r = 0, along_m = 0;
+      AcrossWidthCircle(xy, &c, &r, &along_m);
+      std::vector<std::vector<int>> finer;
+      if (along_m > 2 * r + o.max_depth_smear_m) {
+        finer = SplitOnDenserCells(o, band, sub, 2 * min_count);
+      }
+      if (finer.empty()) {
+        cores.push_back(std::move(sub));
+      } else {
+        for (std::vector<int>& f : finer) cores.push_back(std::move(f));
+      }
+    }
+    return cores;
+  }
+  return {};
+}
+
 }  // namespace
 
 StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoint>& cloud,
@@ -285,123 +451,19 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     }
   }
   result.components = static_cast<int>(parts.size());
+  const Band b{band, band_h};
   for (const std::vector<int>& m : parts) {
-    std::vector<Eigen::Vector2d> all_xy;
-    for (int i : m) all_xy.push_back(band[i]->world.head<2>().cast<double>());
-    Eigen::Vector2d c0;
-    double r0 = 0, rms0 = 0;
-    // A far stem's points are smeared along the line of sight (more than a trunk's face is deep),
-    // and a circle through them means nothing; its width across the line of sight still does.
-    Eigen::Vector2d c_across;
-    double r_across = 0, along_m = 0;
-    AcrossWidthCircle(all_xy, &c_across, &r_across, &along_m);
-    const bool circle_ok = along_m < 2 * r_across + o.max_depth_smear_m &&
-                           FitCircle(all_xy, &c0, &r0, &rms0) && 2 * r0 >= o.min_diameter_m &&
-                           2 * r0 <= o.max_diameter_m;
-    if (!circle_ok) c0 = c_across, r0 = r_across;
-    if (2 * r0 < o.min_diameter_m || 2 * r0 > o.max_diameter_m) {
-      ++result.rejected_size;
-      spdlog::debug(
-          "stems: part of {} points at ({:.2f}, {:.2f}) rejected: diameter {:.2f} m (ground "
-          "{:.2f})",
-          m.size(), c0.x(), c0.y(), 2 * r0, ground.Height(c0.x(), c0.y()));
-      continue;
-    }
-    // Verticality: centroids of three sub-slices of the band on one near-vertical line. Only
-    // points near the stem's circle count: clutter joined to the part at one height (smeared
-    // edges of a near trunk, a branch) would drag that sub-slice's centroid away.
-    // A sub-slice with a tenth of the best one's points holds no surface, only stray points (a
-    // near stem's top is out of view).
-    const double third = (o.band_high_m - o.band_low_m) / 3;
-    const double core_m = r0 + 0.25;
-    std::array<Eigen::Vector3d, 3> sum;
-    std::array<int, 3> cnt = {0, 0, 0};
-    sum.fill(Eigen::Vector3d::Zero());
-    for (int i : m) {
-      const Eigen::Vector2d xy(band[i]->world.x(), band[i]->world.y());
-      const int s = static_cast<int>(std::floor((band_h[i] - o.band_low_m) / third));
-      if ((xy - c0).norm() > core_m || s < 0 || s > 2) continue;
-      sum[s] += Eigen::Vector3d(xy.x(), xy.y(), band_h[i]);
-      ++cnt[s];
-    }
-    const int most = *std::ranges::max_element(cnt);
-    std::vector<Eigen::Vector3d> cent;
-    for (int s = 0; s < 3; ++s) {
-      if (cnt[s] >= 5 && 10 * cnt[s] >= most) cent.push_back(sum[s] / cnt[s]);
-    }
-    double lean_deg = 90.0;
-    if (cent.size() >= 2) {
-      const Eigen::Vector3d d = cent.back() - cent.front();
-      lean_deg = std::atan2(d.head<2>().norm(), std::abs(d.z())) * 180.0 / M_PI;
-    }
-    if (lean_deg > o.max_lean_deg) {
-      ++result.rejected_vertical;
-      spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: lean {:.1f}° ({} sub-slices{})",
-                    c0.x(), c0.y(), lean_deg, cent.size(),
-                    cent.size() >= 2
-                        ? fmt::format(", ({:.2f}, {:.2f}, {:.2f}) to ({:.2f}, {:.2f}, "
-                                      "{:.2f})",
-                                      cent.front().x(), cent.front().y(), cent.front().z(),
-                                      cent.back().x(), cent.back().y(), cent.back().z())
-                        : "");
-      continue;
-    }
-    // Breast-height slice.
-    std::vector<Eigen::Vector2d> slice;
-    std::set<int> views;
-    double half = o.slice_half_m;
-    for (int widen = 0; widen < 3 && slice.size() < 15; ++widen, half *= 2) {
-      slice.clear();
-      views.clear();
-      for (int i : m) {
-        if (std::abs(band_h[i] - o.breast_height_m) > half) continue;
-        slice.push_back(band[i]->world.head<2>().cast<double>());
-        views.insert(band[i]->keyframe);
+    std::optional<Stem> s = MeasurePart(o, b, m, ground, depth_focal_px, false, &result);
+    if (!s) continue;
+    if (s->depth_smeared && o.split_smeared_parts) {
+      StemsResult not_counted;
+      for (const std::vector<int>& sub : SplitOnDenserCells(o, band, m, 2 * o.min_cell_points)) {
+        std::optional<Stem> a = MeasurePart(o, b, sub, ground, depth_focal_px, true, &not_counted);
+        if (a) s->alternatives.push_back(std::move(*a));
       }
+      if (s->alternatives.size() < 2) s->alternatives.clear();
     }
-    if (slice.size() < 8) continue;
-    const double support_m2 =
-        depth_focal_px > 0 ? slice.size() * c0.squaredNorm() / (depth_focal_px * depth_focal_px)
-                           : o.min_slice_support_m2;
-    Stem s;
-    if (support_m2 < o.min_slice_support_m2) {
-      if (support_m2 < o.weak_support_share * o.min_slice_support_m2) {
-        ++result.rejected_size;
-        spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: {} slice points", c0.x(), c0.y(),
-                      slice.size());
-        continue;
-      }
-      s.weak_support = true;
-    }
-    double r = r0, rms = rms0;
-    Eigen::Vector2d c = c0;
-    if (!FitCircle(slice, &c, &r, &rms) || 2 * r > o.max_diameter_m) {
-      c = c0;
-      r = r0;
-    }
-    s.dbh_circle_m = 2 * r;
-    s.dbh_slice_m = SliceWidth(slice, c);
-    if (!circle_ok) {
-      AcrossWidthCircle(slice, &c, &r);
-      s.dbh_circle_m = s.dbh_slice_m = 2 * r;
-      s.depth_smeared = true;
-    }
-    s.pass_through = PassThroughRatio(band, c, r);
-    if (s.pass_through > o.free_space_veto) {
-      ++result.vetoed_free_space;
-      spdlog::debug("stems: part at ({:.2f}, {:.2f}) vetoed: {:.0f}% of rays pass through", c.x(),
-                    c.y(), 100 * s.pass_through);
-      continue;
-    }
-    s.centre_xy = c;
-    s.ground_z_m = ground.Height(c.x(), c.y());
-    s.dbh_m = o.dbh_method == "circle" ? s.dbh_circle_m : s.dbh_slice_m;  // tangent: later
-    s.dbh_sd_m = rms;
-    s.n_points = static_cast<int>(slice.size());
-    s.n_views = static_cast<int>(views.size());
-    s.lean_deg = lean_deg;
-    if (s.n_views < 3) s.flags.push_back("few_views");
-    result.stems.push_back(s);
+    result.stems.push_back(std::move(*s));
   }
   std::sort(result.stems.begin(), result.stems.end(), [](const Stem& a, const Stem& b) {
     return a.centre_xy.squaredNorm() < b.centre_xy.squaredNorm();

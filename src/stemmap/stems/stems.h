@@ -25,6 +25,9 @@ struct StemOptions {
   // by depth noise: the stem is placed and sized by its width across the line of sight.
   double max_depth_smear_m = 0.3;
   double split_gap_m = 0.06;
+  // A smeared part may be stems one behind another that depth noise joined: its denser cores
+  // are kept as alternatives (Stem::alternatives), tried when no silhouette fits the whole.
+  bool split_smeared_parts = true;
   double split_range_gap_m = 0.6;
   int min_points = 25;
   // Breast-height slice points times the area one depth pixel covers at the stem's distance
@@ -63,6 +66,8 @@ struct Stem {
   // a stem only if two-sided silhouettes confirm it.
   bool weak_support = false;
   std::vector<std::string> flags;
+  // For a depth-smeared part: the stems its denser cores make, when it has two or more.
+  std::vector<Stem> alternatives;
 };
 
 struct StemsResult {

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "stemmap/core/rng.h"
 
 namespace stemmap::stems {
@@ -173,6 +175,60 @@ TEST(Stems, NearTrunkWithStrayPointsAboveIsVertical) {
   ASSERT_EQ(res.stems.size(), 1u);
   EXPECT_LT((res.stems[0].centre_xy - c).norm(), 0.05);
   EXPECT_LT(res.stems[0].lean_deg, 5.0);
+}
+
+// Two thin far trunks two degrees apart from the centre and 1 m apart in range, with stray depths
+// bridging them: stereo smears them into one part that no single stem fits. Its dense cores are
+// kept as alternatives, one at each trunk.
+TEST(Stems, SmearedPartOfTrunksInLineKeepsTheirCores) {
+  Rng rng(8);
+  std::vector<dense::CloudPoint> cloud;
+  for (int i = 0; i < kGroundPoints; ++i) {
+    const Eigen::Vector3d p(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01));
+    cloud.push_back({p.cast<float>(), Eigen::Vector3f(0, 0, 1.3f), cv::Vec3b(80, 90, 100), 0});
+  }
+  // Each point seen from a camera on the 1-m arm within 30° of its bearing.
+  auto add = [&](double range, double bearing, double z) {
+    const Eigen::Vector3d p(range * std::cos(bearing), range * std::sin(bearing), z);
+    const double arm = bearing + rng.Uniform(-0.5, 0.5);
+    const Eigen::Vector3d origin(std::cos(arm), std::sin(arm), 1.3);
+    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+  };
+  struct Trunk {
+    double range, bearing, r;
+  };
+  const std::vector<Trunk> trunks = {{8.2, -0.017, 0.08}, {9.15, -0.052, 0.07}};
+  for (const Trunk& t : trunks) {
+    for (int i = 0; i < 5000; ++i) {
+      const double a = rng.Uniform(-1.3, 1.3);  // the face toward the centre
+      const double range = t.range - t.r * std::cos(a) + rng.Normal(0, 0.06);
+      add(range, t.bearing + t.r * std::sin(a) / t.range, rng.Uniform(0, 3));
+    }
+  }
+  for (int i = 0; i < 3000; ++i) {  // stray depths between them, at the band's heights
+    const double range = rng.Uniform(8.3, 9.05), bearing = rng.Uniform(-0.045, -0.025);
+    add(range, bearing, rng.Uniform(1.0, 2.0));
+  }
+  const GroundGrid ground(cloud, 13, 0.5);
+  // The bearing split would part these synthetic trunks already; real smears defeat it.
+  StemOptions o;
+  o.split_by_bearing = false;
+  const StemsResult res = DetectStems(o, cloud, ground);
+  ASSERT_EQ(res.stems.size(), 1u);
+  const Stem& whole = res.stems[0];
+  EXPECT_TRUE(whole.depth_smeared);
+  ASSERT_GE(whole.alternatives.size(), 2u);
+  for (const Trunk& t : trunks) {
+    const Eigen::Vector2d c = t.range * Eigen::Vector2d(std::cos(t.bearing), std::sin(t.bearing));
+    const bool found = std::ranges::any_of(whole.alternatives, [&](const Stem& a) {
+      const double bearing = std::atan2(a.centre_xy.y(), a.centre_xy.x());
+      return std::abs(bearing - t.bearing) < 0.006 && (a.centre_xy - c).norm() < 0.2;
+    });
+    EXPECT_TRUE(found) << "trunk at " << t.range << " m";
+  }
+  StemOptions whole_only = o;
+  whole_only.split_smeared_parts = false;
+  EXPECT_TRUE(DetectStems(whole_only, cloud, ground).stems[0].alternatives.empty());
 }
 
 }  // namespace
