@@ -2,6 +2,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <functional>
 #include <opencv2/imgproc.hpp>
 
 #include "stemmap/core/error.h"
@@ -27,13 +28,19 @@ cv::Mat TestFrame(int w, int h, int i) {
   return img;
 }
 
-TEST(Video, WriteThenReadRoundTrip) {
-  const fs::path path = TestDir() / "clip.mp4";
+// The tests' clips: 160x96 at 10 fps.
+VideoWriterOptions ClipOptions() {
   VideoWriterOptions wo;
   wo.width = 160;
   wo.height = 96;
   wo.fps = 10;
   wo.bitrate_mbps = 1.0;
+  return wo;
+}
+
+TEST(Video, WriteThenReadRoundTrip) {
+  const fs::path path = TestDir() / "clip.mp4";
+  const VideoWriterOptions wo = ClipOptions();
   VideoWriter writer(path, wo);
   for (int i = 0; i < 20; ++i) writer.Write(TestFrame(wo.width, wo.height, i));
   EXPECT_FALSE(fs::exists(path)) << "the file must appear only when complete";
@@ -118,14 +125,14 @@ void RunFfmpeg(const fs::path& in, const std::string& args, const fs::path& out)
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
 }
 
-fs::path WriteClip(const fs::path& path, int frames) {
-  VideoWriterOptions wo;
-  wo.width = 160;
-  wo.height = 96;
-  wo.fps = 10;
-  wo.bitrate_mbps = 1.0;
+// A clip of `frames` frames, TestFrame's unless `frame` draws them.
+fs::path WriteClip(const fs::path& path, int frames,
+                   const std::function<cv::Mat(int)>& frame = nullptr) {
+  const VideoWriterOptions wo = ClipOptions();
   VideoWriter writer(path, wo);
-  for (int i = 0; i < frames; ++i) writer.Write(TestFrame(wo.width, wo.height, i));
+  for (int i = 0; i < frames; ++i) {
+    writer.Write(frame ? frame(i) : TestFrame(wo.width, wo.height, i));
+  }
   writer.Close();
   return path;
 }
@@ -190,21 +197,12 @@ TEST(Video, HevcInMovDecodes) {
 // read and the rest is lost without a crash.
 TEST(Video, TruncatedFilesAreRefusedOrReadUpToTheCut) {
   // Textured frames, so that the cut falls among the frames rather than in the header.
-  const fs::path clip = TestDir() / "whole.mp4";
-  {
-    VideoWriterOptions wo;
-    wo.width = 160;
-    wo.height = 96;
-    wo.fps = 10;
-    VideoWriter writer(clip, wo);
-    cv::RNG rng(7);
-    for (int i = 0; i < 30; ++i) {
-      cv::Mat img(wo.height, wo.width, CV_8UC3);
-      rng.fill(img, cv::RNG::UNIFORM, 0, 255);
-      writer.Write(img);
-    }
-    writer.Close();
-  }
+  cv::RNG rng(7);
+  const fs::path clip = WriteClip(TestDir() / "whole.mp4", 30, [&rng](int) {
+    cv::Mat img(96, 160, CV_8UC3);
+    rng.fill(img, cv::RNG::UNIFORM, 0, 255);
+    return img;
+  });
   auto cut = [](const fs::path& from, double keep) {
     const std::string bytes = ReadFileToString(from);
     const fs::path to = TestDir() / (from.stem().string() + "_cut.mp4");
