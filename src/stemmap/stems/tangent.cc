@@ -30,6 +30,11 @@ bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
     const double w = std::pow(prior->ray_sigma_m / prior->sigma_m, 2);
     prior_ata.topLeftCorner<2, 2>() = w * Eigen::Matrix2d::Identity();
     prior_atb.head<2>() = w * prior->centre;
+    if (prior->radius_sigma_m > 0) {
+      const double wr = std::pow(prior->ray_sigma_m / prior->radius_sigma_m, 2);
+      prior_ata(2, 2) = wr;
+      prior_atb(2) = wr * prior->radius_m;
+    }
   }
   std::vector<double> w(n, 1.0);
   Eigen::Vector3d x = Eigen::Vector3d::Zero();
@@ -370,6 +375,7 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     std::vector<Eigen::Vector2d> normals, origins;
     std::vector<double> headings;
     int views = 0, tried = 0, hidden_sides = 0, two_sided = 0;
+    std::array<int, 2> side_rays = {0, 0};
     for (size_t k = 0; k < v.keyframes->size(); ++k) {
       if ((*v.gray)[k].empty()) continue;
       const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
@@ -429,6 +435,7 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
         if (nrm.dot(c - cc) < 0) nrm = -nrm;
         normals.push_back(nrm);
         origins.push_back(cc);
+        ++side_rays[s];
         ++used;
       }
       if (used == 2) ++two_sided;
@@ -444,14 +451,22 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     if (static_cast<int>(normals.size()) < o.min_rays) return fit;
     Eigen::Vector2d c_new;
     double r_new, r_sd, rms;
-    const CentrePrior prior{centre0, o.prior_share_of_distance * centre0.norm() + 0.05, o.huber_m};
-    if (!SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms, nullptr,
-                            &prior)) {
-      return fit;
+    CentrePrior prior{centre0, o.prior_share_of_distance * centre0.norm() + 0.05, o.huber_m};
+    bool solved = SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms,
+                                     nullptr, &prior);
+    auto implausible = [&] { return (c_new - centre0).norm() > 0.5 || r_new > 3 * radius0 + 0.1; };
+    if ((side_rays[0] == 0 || side_rays[1] == 0) && (!solved || implausible())) {
+      // Rays from one side only leave the width free, and here they found none that fits: the
+      // cloud's width holds it, the rays place it.
+      prior.radius_m = radius0;
+      prior.radius_sigma_m = 0.1 * o.huber_m;
+      solved = SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms, nullptr,
+                                  &prior);
     }
+    if (!solved) return fit;
     spdlog::debug("tangent:   solved ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm", c_new.x(), c_new.y(),
                   r_new, 1000 * rms);
-    if ((c_new - centre0).norm() > 0.5 || r_new > 3 * radius0 + 0.1) return fit;
+    if (implausible()) return fit;
     // The cloud misjudges depth, not bearing: a fit that moved sideways found another stem. A
     // wide start supposes the cloud saw part of the stem, whose centre may then lie its radius
     // to the side.

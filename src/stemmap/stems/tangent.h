@@ -114,6 +114,9 @@ struct CentrePrior {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   double sigma_m = 1.0;        // of the prior, in each direction
   double ray_sigma_m = 0.005;  // expected ray residual, which sets the prior's relative weight
+  // A prior on the radius too, when radius_sigma_m > 0: silhouettes of one side only fix where
+  // the stem's side is, not how wide it is.
+  double radius_m = 0.0, radius_sigma_m = 0.0;
 };
 
 // Least squares circle tangent to horizontal lines n_i . (p - c_i) = r, weighted by Huber and,

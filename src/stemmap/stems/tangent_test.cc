@@ -134,6 +134,32 @@ TEST(Tangent, CentrePriorHoldsTheDepth) {
   EXPECT_NEAR(r / fitted.x(), radius / 10.0, 2e-4);  // angular size from the rays
 }
 
+// Rays of one side only (the other hidden behind a nearer stem) say where that side is, not how
+// wide the stem is: a radius prior holds the width, and the rays then place the centre.
+TEST(Tangent, RadiusPriorHoldsTheWidthOfAOneSidedStem) {
+  const Eigen::Vector2d centre(8.5, 3.0);
+  const double radius = 0.08;
+  Rng rng(9);
+  const Rays both = TangentRaysFromArc(centre, radius, 0.0, 0.6, 24, 3e-4, rng);
+  Rays left;  // every other ray: one side
+  for (size_t i = 0; i < both.normals.size(); i += 2) {
+    left.normals.push_back(both.normals[i]);
+    left.origins.push_back(both.origins[i]);
+  }
+  CentrePrior prior{Eigen::Vector2d(8.7, 3.05), 0.5, 0.004};
+  prior.radius_m = 0.07;  // the cloud's width, a little small
+  prior.radius_sigma_m = 0.0004;
+  Eigen::Vector2d fitted;
+  double r = 0, r_sd = 0, rms = 0;
+  ASSERT_TRUE(SolveTangentCircle(left.normals, left.origins, 0.004, &fitted, &r, &r_sd, &rms,
+                                 nullptr, &prior));
+  EXPECT_NEAR(r, 0.07, 0.002);
+  // The visible side stays where the rays put it: the centre moves in by the width's error.
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre.y(), centre.x()).normalized();
+  EXPECT_LT(std::abs(across.dot(fitted - centre)), 0.03);
+  EXPECT_LT((fitted - centre).norm(), 0.15);
+}
+
 // Keyframes on the arm's circle looking outward at a furrowed stem, rendered by ray casting, in
 // front of either a plain sky or a textured far background. The fit starts from a centre 0.3 m
 // too far and a radius 2 cm small, as the cloud gives them.
