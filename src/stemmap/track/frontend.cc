@@ -21,6 +21,9 @@ void FrontendOptions::Check() const {
   }
   if (!(track_fps > 0)) throw InputError("track fps must be positive");
   if (max_features < 50) throw InputError("max features must be at least 50");
+  if (lk_window_px < 5 || lk_refine_window_px < 3 || lk_levels < 0 || lk_refine_levels < 0) {
+    throw InputError("KLT windows must be at least 5 and 3 px, pyramid levels non-negative");
+  }
   if (!(keyframe_step_deg > 0.2 && keyframe_step_deg < 20)) {
     throw InputError(fmt::format("keyframe step {}° must lie in (0.2, 20)", keyframe_step_deg));
   }
@@ -109,6 +112,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
   const int stride = std::max(1, static_cast<int>(std::lround(fps / o.track_fps)));
   const double step_rad = o.keyframe_step_deg * M_PI / 180.0;
   const cv::Size win(o.lk_window_px, o.lk_window_px);
+  const cv::Size fine_win(o.lk_refine_window_px, o.lk_refine_window_px);
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
   cv::Ptr<cv::ORB> orb = cv::ORB::create(o.orb_features);
   cv::Ptr<cv::LineSegmentDetector> lsd = cv::createLineSegmentDetector(cv::LSD_REFINE_NONE);
@@ -161,9 +165,13 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     std::vector<float> err;
     if (!tr.pts.empty()) {
       cv::calcOpticalFlowPyrLK(prev_pyr, pyr, tr.pts, next, st, err, win, o.lk_levels, term);
+      std::vector<uchar> st_fine;
+      cv::calcOpticalFlowPyrLK(prev_pyr, pyr, tr.pts, next, st_fine, err, fine_win,
+                               o.lk_refine_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+      for (size_t i = 0; i < st.size(); ++i) st[i] = st[i] && st_fine[i];
       back = tr.pts;
-      cv::calcOpticalFlowPyrLK(pyr, prev_pyr, next, back, st_back, err, win, o.lk_levels, term,
-                               cv::OPTFLOW_USE_INITIAL_FLOW);
+      cv::calcOpticalFlowPyrLK(pyr, prev_pyr, next, back, st_back, err, fine_win,
+                               o.lk_refine_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
     }
     size_t k = 0;
     for (size_t i = 0; i < tr.pts.size(); ++i) {

@@ -17,8 +17,13 @@ struct FrontendOptions {
   int max_features = 500;          // KLT points alive at once
   double min_feature_distance_px = 14.0;
   double feature_quality = 0.003;  // goodFeaturesToTrack quality level
-  int lk_window_px = 21;
+  int lk_window_px = 21;           // finds the motion, however large, on a 3-level pyramid
   int lk_levels = 3;
+  // ...then a small window places the point: a large one takes in a trunk's edge and the
+  // background beside it, which move apart as the camera turns, and pulls the point along by a
+  // few hundredths of a pixel a frame. Over a turn that bent the keyframe headings by 0.1-0.7°.
+  int lk_refine_window_px = 7;
+  int lk_refine_levels = 2;
   double max_forward_backward_px = 0.8;  // KLT consistency check
   double keyframe_step_deg = 2.0;        // apparent rotation between keyframes
   int orb_features = 800;                // per keyframe, for loop closure
