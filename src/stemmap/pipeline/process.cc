@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <tuple>
 #include <utility>
 
 #include "stemmap/core/error.h"
@@ -210,7 +211,10 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == "tangent") {
       s.flags.push_back(f.ok && f.two_sided_views < 3 ? "one_sided" : "no_silhouette");
     }
-    if (verdict != SilhouetteVerdict::kUse) return std::pair{verdict, std::move(s)};
+    // A core stands alone only on clean silhouettes: both sides in a quarter of its views, on
+    // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges).
+    const bool clean = f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m;
+    if (verdict != SilhouetteVerdict::kUse) return std::tuple{verdict, std::move(s), clean};
     // The silhouettes' views replace the cloud's count.
     std::erase(s.flags, std::string("few_views"));
     if (f.views < 4) s.flags.push_back("few_views");
@@ -229,27 +233,25 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }
-    return std::pair{verdict, std::move(s)};
+    return std::tuple{verdict, std::move(s), clean};
   };
   int fitted = 0, dropped = 0, from_cores = 0;
   std::vector<stems::Stem> kept;
   for (stems::Stem& part : *stems) {
     std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
-    auto [verdict, s] = refine(std::move(part));
+    auto [verdict, s, clean] = refine(std::move(part));
     if (verdict != SilhouetteVerdict::kDrop) {
       if (verdict == SilhouetteVerdict::kUse) ++fitted;
       kept.push_back(std::move(s));
       continue;
     }
     ++dropped;
-    // No silhouette fits a smeared part as a whole: it may be stems one behind another. Each
-    // dense core is a stem when its own silhouettes fit it from both sides, clear of the stems
-    // kept so far.
+    // No silhouette fits the part as a whole: it may be stems one behind another, or a stem and
+    // a sapling beside it. Each dense core is a stem when its own silhouettes fit it from both
+    // sides, clear of the stems kept so far.
     for (stems::Stem& core : cores) {
-      auto [core_verdict, c] = refine(std::move(core));
-      if (core_verdict != SilhouetteVerdict::kUse || std::ranges::count(c.flags, "one_sided")) {
-        continue;
-      }
+      auto [core_verdict, c, core_clean] = refine(std::move(core));
+      if (core_verdict != SilhouetteVerdict::kUse || !core_clean) continue;
       const bool overlaps = std::ranges::any_of(kept, [&](const stems::Stem& k) {
         return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
       });
@@ -260,7 +262,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     }
   }
   spdlog::info(
-      "stems: tangent rays fitted {} of {} stems ({} from the cores of smeared parts); {} parts "
+      "stems: tangent rays fitted {} of {} stems ({} from the cores of parts); {} parts "
       "without silhouettes dropped",
       fitted, stems->size(), from_cores, dropped);
   *stems = std::move(kept);

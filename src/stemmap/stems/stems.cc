@@ -372,9 +372,9 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   return s;
 }
 
-// A smeared part split again on denser cells: stems one behind another that depth noise joined
-// stand out as dense cores. A core still smeared is split again on denser cells still. Empty
-// when no density splits the part in two or more.
+// A part split again on denser cells: stems one behind another that depth noise joined, or a
+// stem and a sapling beside it, stand out as dense cores. A core still smeared is split again on
+// denser cells still. Empty when no density splits the part in two or more.
 std::vector<std::vector<int>> SplitOnDenserCells(const StemOptions& o,
                                                  const std::vector<const dense::CloudPoint*>& band,
                                                  const std::vector<int>& part, int min_count) {
@@ -455,10 +455,11 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
   for (const std::vector<int>& m : parts) {
     std::optional<Stem> s = MeasurePart(o, b, m, ground, depth_focal_px, false, &result);
     if (!s) continue;
-    if (s->depth_smeared && o.split_smeared_parts) {
+    if (o.split_parts_into_cores) {
       StemsResult not_counted;
       for (const std::vector<int>& sub : SplitOnDenserCells(o, band, m, 2 * o.min_cell_points)) {
-        std::optional<Stem> a = MeasurePart(o, b, sub, ground, depth_focal_px, true, &not_counted);
+        std::optional<Stem> a =
+            MeasurePart(o, b, sub, ground, depth_focal_px, s->depth_smeared, &not_counted);
         if (a) s->alternatives.push_back(std::move(*a));
       }
       if (s->alternatives.size() < 2) s->alternatives.clear();

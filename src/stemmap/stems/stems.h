@@ -25,9 +25,10 @@ struct StemOptions {
   // by depth noise: the stem is placed and sized by its width across the line of sight.
   double max_depth_smear_m = 0.3;
   double split_gap_m = 0.06;
-  // A smeared part may be stems one behind another that depth noise joined: its denser cores
-  // are kept as alternatives (Stem::alternatives), tried when no silhouette fits the whole.
-  bool split_smeared_parts = true;
+  // A part may be stems one behind another that depth noise joined, or a stem and a sapling
+  // beside it: its denser cores are kept as alternatives (Stem::alternatives), tried when no
+  // silhouette fits the whole.
+  bool split_parts_into_cores = true;
   double split_range_gap_m = 0.6;
   int min_points = 25;
   // Breast-height slice points times the area one depth pixel covers at the stem's distance

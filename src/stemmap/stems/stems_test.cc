@@ -227,7 +227,7 @@ TEST(Stems, SmearedPartOfTrunksInLineKeepsTheirCores) {
     EXPECT_TRUE(found) << "trunk at " << t.range << " m";
   }
   StemOptions whole_only = o;
-  whole_only.split_smeared_parts = false;
+  whole_only.split_parts_into_cores = false;
   EXPECT_TRUE(DetectStems(whole_only, cloud, ground).stems[0].alternatives.empty());
 }
 

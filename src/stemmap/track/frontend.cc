@@ -165,13 +165,20 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     std::vector<float> err;
     if (!tr.pts.empty()) {
       cv::calcOpticalFlowPyrLK(prev_pyr, pyr, tr.pts, next, st, err, win, o.lk_levels, term);
+      // The small window places the point where it agrees with the large one; where it fails
+      // (blur, little texture in it) the large window's place stands.
+      std::vector<cv::Point2f> fine = next;
       std::vector<uchar> st_fine;
-      cv::calcOpticalFlowPyrLK(prev_pyr, pyr, tr.pts, next, st_fine, err, fine_win,
+      cv::calcOpticalFlowPyrLK(prev_pyr, pyr, tr.pts, fine, st_fine, err, fine_win,
                                o.lk_refine_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
-      for (size_t i = 0; i < st.size(); ++i) st[i] = st[i] && st_fine[i];
+      for (size_t i = 0; i < next.size(); ++i) {
+        if (st[i] && st_fine[i] && cv::norm(fine[i] - next[i]) < o.lk_refine_max_shift_px) {
+          next[i] = fine[i];
+        }
+      }
       back = tr.pts;
-      cv::calcOpticalFlowPyrLK(pyr, prev_pyr, next, back, st_back, err, fine_win,
-                               o.lk_refine_levels, term, cv::OPTFLOW_USE_INITIAL_FLOW);
+      cv::calcOpticalFlowPyrLK(pyr, prev_pyr, next, back, st_back, err, win, o.lk_levels, term,
+                               cv::OPTFLOW_USE_INITIAL_FLOW);
     }
     size_t k = 0;
     for (size_t i = 0; i < tr.pts.size(); ++i) {

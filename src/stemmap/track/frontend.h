@@ -24,6 +24,7 @@ struct FrontendOptions {
   // few hundredths of a pixel a frame. Over a turn that bent the keyframe headings by 0.1-0.7°.
   int lk_refine_window_px = 7;
   int lk_refine_levels = 2;
+  double lk_refine_max_shift_px = 1.0;  // further from the large window's place: not the same point
   double max_forward_backward_px = 0.8;  // KLT consistency check
   double keyframe_step_deg = 2.0;        // apparent rotation between keyframes
   int orb_features = 800;                // per keyframe, for loop closure
