@@ -30,6 +30,9 @@ void ProcessOptions::Check() const {
   if (!(one_sided_max_over_cloud >= 1)) {
     throw InputError("a one-sided fit's bound over the cloud's width must be at least 1");
   }
+  if (!(min_core_share >= 0 && min_core_share <= 1)) {
+    throw InputError("the share of a part's width a core must reach must lie in [0, 1]");
+  }
 }
 
 PlotFigures ComputePlotFigures(const std::vector<stems::Stem>& stems, double plot_radius_m,
@@ -240,18 +243,23 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
   for (stems::Stem& part : *stems) {
     std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
     auto [verdict, s, clean] = refine(std::move(part));
-    if (verdict != SilhouetteVerdict::kDrop) {
-      if (verdict == SilhouetteVerdict::kUse) ++fitted;
+    if (verdict == SilhouetteVerdict::kUse) {
+      ++fitted;
       kept.push_back(std::move(s));
       continue;
     }
-    ++dropped;
     // No silhouette fits the part as a whole: it may be stems one behind another, or a stem and
-    // a sapling beside it. Each dense core is a stem when its own silhouettes fit it from both
-    // sides, clear of the stems kept so far.
+    // a shrub or sapling beside it. Each dense core is a stem when its own silhouettes fit it
+    // cleanly, clear of the stems kept so far; they replace the part. A part kept on its cloud
+    // is one stem, maybe widened by a shrub: a core far narrower than it is a piece of its bark.
+    const size_t before = kept.size();
+    const double min_core_dbh_m =
+        verdict == SilhouetteVerdict::kKeepCloud ? o.min_core_share * s.dbh_m : 0.0;
     for (stems::Stem& core : cores) {
       auto [core_verdict, c, core_clean] = refine(std::move(core));
-      if (core_verdict != SilhouetteVerdict::kUse || !core_clean) continue;
+      if (core_verdict != SilhouetteVerdict::kUse || !core_clean || c.dbh_m < min_core_dbh_m) {
+        continue;
+      }
       const bool overlaps = std::ranges::any_of(kept, [&](const stems::Stem& k) {
         return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
       });
@@ -259,6 +267,12 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       ++fitted;
       ++from_cores;
       kept.push_back(std::move(c));
+    }
+    if (kept.size() > before) continue;
+    if (verdict == SilhouetteVerdict::kKeepCloud) {
+      kept.push_back(std::move(s));
+    } else {
+      ++dropped;
     }
   }
   spdlog::info(
@@ -339,6 +353,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"require_silhouette", o.require_silhouette},
        {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
        {"one_sided_min_cloud_radius_m", o.one_sided_min_cloud_radius_m},
+       {"min_core_share", o.min_core_share},
        {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
        {"near_stereo_pair_turn_deg", o.dense.near_pair_turn_deg},

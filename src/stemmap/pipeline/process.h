@@ -31,6 +31,10 @@ struct ProcessOptions {
   // a nearer one, not a twig that one loose side widened).
   double one_sided_max_over_cloud = 1.1;
   double one_sided_min_cloud_radius_m = 0.075;
+  // A part that silhouettes do not fit is replaced by its dense cores that they fit cleanly; when
+  // the part is kept on its cloud (one stem, perhaps widened by a shrub), only by cores at least
+  // this share of its width (a narrower one is a piece of the stem's bark).
+  double min_core_share = 0.6;
   // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
   // camera are used instead of tracking again; empty: track the video.
   std::filesystem::path from_track;

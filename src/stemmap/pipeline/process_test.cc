@@ -148,6 +148,9 @@ TEST(ProcessOptions, AOneSidedBoundBelowTheCloudIsRejected) {
   o = ProcessOptions();
   o.one_sided_min_cloud_radius_m = -0.01;
   EXPECT_THROW(o.Check(), InputError);
+  o = ProcessOptions();
+  o.min_core_share = 1.5;
+  EXPECT_THROW(o.Check(), InputError);
 }
 
 // The widest tangent start supposes 2.2 times the cloud's width; a fit that grew a little

@@ -231,5 +231,45 @@ TEST(Stems, SmearedPartOfTrunksInLineKeepsTheirCores) {
   EXPECT_TRUE(DetectStems(whole_only, cloud, ground).stems[0].alternatives.empty());
 }
 
+// A near trunk with a shrub against its side: one part, wider than the trunk, that a silhouette
+// fit of the whole would miss. Its dense core is the trunk alone.
+TEST(Stems, PartOfATrunkAndAShrubKeepsTheTrunksCore) {
+  Rng rng(9);
+  std::vector<dense::CloudPoint> cloud;
+  for (int i = 0; i < kGroundPoints; ++i) {
+    const Eigen::Vector3d p(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01));
+    cloud.push_back({p.cast<float>(), Eigen::Vector3f(0, 0, 1.3f), cv::Vec3b(80, 90, 100), 0});
+  }
+  auto add = [&](const Eigen::Vector3d& p) {
+    const double arm = std::atan2(p.y(), p.x()) + rng.Uniform(-0.5, 0.5);
+    const Eigen::Vector3d origin(std::cos(arm), std::sin(arm), 1.3);
+    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+  };
+  const Eigen::Vector2d trunk(2.5, 0.0);
+  const double r = 0.08;
+  for (int i = 0; i < 6000; ++i) {  // the face toward the centre, depth noise of 5 mm
+    const double a = M_PI + rng.Uniform(-1.3, 1.3), rr = r + rng.Normal(0, 0.005);
+    add(Eigen::Vector3d(trunk.x() + rr * std::cos(a), trunk.y() + rr * std::sin(a),
+                        rng.Uniform(0, 3)));
+  }
+  for (int i = 0; i < 2500; ++i) {  // a shrub's twigs and leaves beside it, up to 1.8 m
+    const double a = rng.Uniform(0, 2 * M_PI), d = 0.15 * std::sqrt(rng.Uniform(0, 1));
+    add(Eigen::Vector3d(trunk.x() + 0.05 + d * std::cos(a), 0.25 + d * std::sin(a),
+                        rng.Uniform(0.3, 1.8)));
+  }
+  const GroundGrid ground(cloud, 13, 0.5);
+  StemOptions o;
+  o.split_by_bearing = false;
+  const StemsResult res = DetectStems(o, cloud, ground);
+  ASSERT_EQ(res.stems.size(), 1u);
+  const Stem& whole = res.stems[0];
+  EXPECT_FALSE(whole.depth_smeared);
+  EXPECT_GT(whole.dbh_m, 2 * r + 0.05);  // the shrub widens the part
+  const bool trunk_core = std::ranges::any_of(whole.alternatives, [&](const Stem& a) {
+    return (a.centre_xy - trunk).norm() < 0.04 && std::abs(a.dbh_m - 2 * r) < 0.03;
+  });
+  EXPECT_TRUE(trunk_core);
+}
+
 }  // namespace
 }  // namespace stemmap::stems
