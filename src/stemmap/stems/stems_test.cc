@@ -11,6 +11,23 @@ namespace {
 
 constexpr int kGroundPoints = 60000, kTrunkPoints = 3000;
 
+// Flat ground around the plot centre, seen from the axis.
+std::vector<dense::CloudPoint> FlatGround(Rng* rng) {
+  std::vector<dense::CloudPoint> cloud;
+  for (int i = 0; i < kGroundPoints; ++i) {
+    const Eigen::Vector3d p(rng->Uniform(-12, 12), rng->Uniform(-12, 12), rng->Normal(0, 0.01));
+    cloud.push_back({p.cast<float>(), Eigen::Vector3f(0, 0, 1.3f), cv::Vec3b(80, 90, 100), 0});
+  }
+  return cloud;
+}
+
+// A point seen from a camera on the 1-m arm within 30° of its bearing.
+void AddSeenFromArm(const Eigen::Vector3d& p, Rng* rng, std::vector<dense::CloudPoint>* cloud) {
+  const double arm = std::atan2(p.y(), p.x()) + rng->Uniform(-0.5, 0.5);
+  const Eigen::Vector3d origin(std::cos(arm), std::sin(arm), 1.3);
+  cloud->push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+}
+
 TEST(Stems, CircleFromAnArc) {
   Rng rng(1);
   std::vector<Eigen::Vector2d> pts;
@@ -182,17 +199,10 @@ TEST(Stems, NearTrunkWithStrayPointsAboveIsVertical) {
 // kept as alternatives, one at each trunk.
 TEST(Stems, SmearedPartOfTrunksInLineKeepsTheirCores) {
   Rng rng(8);
-  std::vector<dense::CloudPoint> cloud;
-  for (int i = 0; i < kGroundPoints; ++i) {
-    const Eigen::Vector3d p(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01));
-    cloud.push_back({p.cast<float>(), Eigen::Vector3f(0, 0, 1.3f), cv::Vec3b(80, 90, 100), 0});
-  }
-  // Each point seen from a camera on the 1-m arm within 30° of its bearing.
+  std::vector<dense::CloudPoint> cloud = FlatGround(&rng);
   auto add = [&](double range, double bearing, double z) {
-    const Eigen::Vector3d p(range * std::cos(bearing), range * std::sin(bearing), z);
-    const double arm = bearing + rng.Uniform(-0.5, 0.5);
-    const Eigen::Vector3d origin(std::cos(arm), std::sin(arm), 1.3);
-    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+    AddSeenFromArm(Eigen::Vector3d(range * std::cos(bearing), range * std::sin(bearing), z), &rng,
+                   &cloud);
   };
   struct Trunk {
     double range, bearing, r;
@@ -235,16 +245,8 @@ TEST(Stems, SmearedPartOfTrunksInLineKeepsTheirCores) {
 // fit of the whole would miss. Its dense core is the trunk alone.
 TEST(Stems, PartOfATrunkAndAShrubKeepsTheTrunksCore) {
   Rng rng(9);
-  std::vector<dense::CloudPoint> cloud;
-  for (int i = 0; i < kGroundPoints; ++i) {
-    const Eigen::Vector3d p(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01));
-    cloud.push_back({p.cast<float>(), Eigen::Vector3f(0, 0, 1.3f), cv::Vec3b(80, 90, 100), 0});
-  }
-  auto add = [&](const Eigen::Vector3d& p) {
-    const double arm = std::atan2(p.y(), p.x()) + rng.Uniform(-0.5, 0.5);
-    const Eigen::Vector3d origin(std::cos(arm), std::sin(arm), 1.3);
-    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
-  };
+  std::vector<dense::CloudPoint> cloud = FlatGround(&rng);
+  auto add = [&](const Eigen::Vector3d& p) { AddSeenFromArm(p, &rng, &cloud); };
   const Eigen::Vector2d trunk(2.5, 0.0);
   const double r = 0.08;
   for (int i = 0; i < 6000; ++i) {  // the face toward the centre, depth noise of 5 mm
