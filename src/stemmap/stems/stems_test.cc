@@ -28,6 +28,17 @@ void AddSeenFromArm(const Eigen::Vector3d& p, Rng* rng, std::vector<dense::Cloud
   cloud->push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
 }
 
+// Stems in a synthetic cloud with the bearing split off: it would part these clouds already,
+// where real smears defeat it.
+StemsResult DetectWithoutBearingSplit(const std::vector<dense::CloudPoint>& cloud,
+                                      bool split_parts_into_cores = true) {
+  const GroundGrid ground(cloud, 13, 0.5);
+  StemOptions o;
+  o.split_by_bearing = false;
+  o.split_parts_into_cores = split_parts_into_cores;
+  return DetectStems(o, cloud, ground);
+}
+
 TEST(Stems, CircleFromAnArc) {
   Rng rng(1);
   std::vector<Eigen::Vector2d> pts;
@@ -219,11 +230,7 @@ TEST(Stems, SmearedPartOfTrunksInLineKeepsTheirCores) {
     const double range = rng.Uniform(8.3, 9.05), bearing = rng.Uniform(-0.045, -0.025);
     add(range, bearing, rng.Uniform(1.0, 2.0));
   }
-  const GroundGrid ground(cloud, 13, 0.5);
-  // The bearing split would part these synthetic trunks already; real smears defeat it.
-  StemOptions o;
-  o.split_by_bearing = false;
-  const StemsResult res = DetectStems(o, cloud, ground);
+  const StemsResult res = DetectWithoutBearingSplit(cloud);
   ASSERT_EQ(res.stems.size(), 1u);
   const Stem& whole = res.stems[0];
   EXPECT_TRUE(whole.depth_smeared);
@@ -236,9 +243,7 @@ TEST(Stems, SmearedPartOfTrunksInLineKeepsTheirCores) {
     });
     EXPECT_TRUE(found) << "trunk at " << t.range << " m";
   }
-  StemOptions whole_only = o;
-  whole_only.split_parts_into_cores = false;
-  EXPECT_TRUE(DetectStems(whole_only, cloud, ground).stems[0].alternatives.empty());
+  EXPECT_TRUE(DetectWithoutBearingSplit(cloud, false).stems[0].alternatives.empty());
 }
 
 // A near trunk with a shrub against its side: one part, wider than the trunk, that a silhouette
@@ -259,10 +264,7 @@ TEST(Stems, PartOfATrunkAndAShrubKeepsTheTrunksCore) {
     add(Eigen::Vector3d(trunk.x() + 0.05 + d * std::cos(a), 0.25 + d * std::sin(a),
                         rng.Uniform(0.3, 1.8)));
   }
-  const GroundGrid ground(cloud, 13, 0.5);
-  StemOptions o;
-  o.split_by_bearing = false;
-  const StemsResult res = DetectStems(o, cloud, ground);
+  const StemsResult res = DetectWithoutBearingSplit(cloud);
   ASSERT_EQ(res.stems.size(), 1u);
   const Stem& whole = res.stems[0];
   EXPECT_FALSE(whole.depth_smeared);
