@@ -18,4 +18,4 @@ height=$(python3 -c "import json;print(json.load(open('$out/truth.json'))['camer
   --out "$out/run"
 "$bin" evaluate --truth "$out/truth.json" --pred "$out/run/trees.csv" \
   --trajectory "$out/run/trajectory.tum" --out "$out/run"
-echo "demo: video, truth and stills in $out/; tree list, trajectory and scores in $out/run/"
+echo "demo: video, truth and stills in $out/; tree list, map, report.html, trajectory and scores in $out/run/"

@@ -40,6 +40,9 @@ void AddProcessCommand(CLI::App& app) {
   sub->add_flag("--require-silhouette,!--keep-unconfirmed", opt->require_silhouette,
                 "Drop cloud parts whose silhouettes were not found (default); "
                 "--keep-unconfirmed keeps them, flagged no_silhouette");
+  sub->add_flag("--report,!--no-report", opt->write_report,
+                "Write map.svg and report.html with a picture of each stem at breast height "
+                "(default)");
   sub->add_option("--mask-model", opt->mask.model,
                   "Optional learned trunk segmentation network (ONNX, or any format OpenCV's dnn "
                   "reads); see docs/mask-model.md")

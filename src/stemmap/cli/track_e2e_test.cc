@@ -1,4 +1,5 @@
 // End to end: simulate short captures and track them; bad videos fail with a clear error.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -106,8 +107,13 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   o.track = OptionsFromTruth(dir / "truth.json");
   const pipeline::ProcessResult r = pipeline::RunProcess(o, dir / "video.mp4", dir / "out");
   for (const char* f : {"trees.csv", "summary.json", "cloud.ply", "stems_detail.csv",
-                        "trajectory.tum", "process_options.json"}) {
+                        "trajectory.tum", "process_options.json", "map.svg", "report.html"}) {
     EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
+  }
+  // The report shows every tree in a keyframe (the track saw each of them).
+  ASSERT_FALSE(r.stems.empty());
+  for (size_t i = 1; i <= r.stems.size(); ++i) {
+    EXPECT_TRUE(fs::exists(dir / "out" / "report" / fmt::format("tree_{:03d}.jpg", i))) << i;
   }
   const nlohmann::json summary = ReadJsonFile(dir / "out" / "summary.json");
   EXPECT_EQ(summary["plot"]["stems"].get<int>(), r.figures.stems);

@@ -13,6 +13,7 @@
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/core/pose.h"
+#include "stemmap/report/report.h"
 #include "stemmap/track/track_io.h"
 
 namespace stemmap::pipeline {
@@ -282,6 +283,37 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
   *stems = std::move(kept);
 }
 
+namespace {
+
+void WriteProcessReport(const ProcessOptions& o, const track::TrackResult& tr,
+                        const std::vector<cv::Mat>& images, const ProcessResult& r,
+                        const std::filesystem::path& video, const std::filesystem::path& out_dir) {
+  report::ReportOptions ro;
+  ro.map.plot_radius_m = o.plot_radius_m;
+  ro.breast_height_m = o.stems.breast_height_m;
+  report::ReportInput in;
+  in.stems = &r.stems;
+  in.camera = &tr.camera;
+  in.keyframes = &tr.keyframes;
+  in.images = &images;
+  for (const StampedPose& p : tr.frames.empty() ? tr.keyframes : tr.frames) {
+    in.camera_path_xy.push_back(p.world_from_cam.translation.head<2>());
+  }
+  in.title = fmt::format("stemmap plot report: {}", video.filename().string());
+  const PlotFigures& f = r.figures;
+  in.figures = {
+      {"stems listed (within 11 m)", fmt::format("{}", r.stems.size())},
+      {fmt::format("stems in the {:g}-m plot, DBH ≥ {:g} cm", o.plot_radius_m, o.min_dbh_cm),
+       fmt::format("{}", f.stems)},
+      {"stems per hectare", fmt::format("{:.0f}", f.stems_per_ha)},
+      {"basal area", fmt::format("{:.1f} m²/ha", f.basal_area_m2_per_ha)},
+      {"quadratic mean diameter", fmt::format("{:.1f} cm", f.qmd_cm)},
+      {"DBH method", o.stems.dbh_method}};
+  report::WriteReport(ro, in, out_dir);
+}
+
+}  // namespace
+
 ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& video,
                          const std::filesystem::path& out_dir) {
   o.Check();
@@ -332,6 +364,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   r.figures = ComputePlotFigures(r.stems, o.plot_radius_m, o.min_dbh_cm);
   WriteTreesCsv(out_dir / "trees.csv", r.stems, o.stems.breast_height_m, o.plot_radius_m);
   WriteStemDetails(out_dir / "stems_detail.csv", r.stems);
+  if (o.write_report) WriteProcessReport(o, tr, din.images, r, video, out_dir);
   nlohmann::json& s = r.summary;
   s["plot"] =
       PlotSummaryJson(r.figures, static_cast<int>(r.stems.size()), o.plot_radius_m, o.min_dbh_cm);
@@ -354,6 +387,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
        {"one_sided_min_cloud_radius_m", o.one_sided_min_cloud_radius_m},
        {"min_core_share", o.min_core_share},
+       {"write_report", o.write_report},
        {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
        {"near_stereo_pair_turn_deg", o.dense.near_pair_turn_deg},

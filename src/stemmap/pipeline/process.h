@@ -38,6 +38,8 @@ struct ProcessOptions {
   // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
   // camera are used instead of tracking again; empty: track the video.
   std::filesystem::path from_track;
+  // map.svg and report.html with a picture of each stem at breast height.
+  bool write_report = true;
   void Check() const;
 };
 

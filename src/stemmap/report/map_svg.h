@@ -1,0 +1,25 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "stemmap/stems/stems.h"
+
+namespace stemmap::report {
+
+struct MapOptions {
+  double plot_radius_m = 10.0;
+  int size_px = 640;
+  // Stems are drawn this many times their DBH: at true scale a 10-cm stem is a dot.
+  double stem_scale = 3.0;
+  void Check() const;
+};
+
+// Stem map of the plot as a standalone SVG: the plot circle, 2-m rings, the camera's path, every
+// stem at its position (plot frame, x to the right, y up) labelled with its tree_id (order in
+// `stems`, as trees.csv), flagged stems in orange, stems outside the plot radius in grey.
+std::string PlotMapSvg(const MapOptions& options, const std::vector<stems::Stem>& stems,
+                       const std::vector<Eigen::Vector2d>& camera_path_xy);
+
+}  // namespace stemmap::report

@@ -1,0 +1,64 @@
+#include "stemmap/report/map_svg.h"
+
+#include <gtest/gtest.h>
+
+#include "stemmap/core/error.h"
+
+namespace stemmap::report {
+namespace {
+
+stems::Stem MakeStem(double x, double y, double dbh_m, std::vector<std::string> flags = {}) {
+  stems::Stem s;
+  s.centre_xy = {x, y};
+  s.dbh_m = dbh_m;
+  s.flags = std::move(flags);
+  return s;
+}
+
+int Count(const std::string& s, const std::string& what) {
+  int n = 0;
+  for (size_t p = s.find(what); p != std::string::npos; p = s.find(what, p + 1)) ++n;
+  return n;
+}
+
+TEST(PlotMapSvg, DrawsEveryStemColouredByItsStanding) {
+  const std::vector<stems::Stem> stems = {MakeStem(3.0, 1.0, 0.30), MakeStem(-5.0, 2.0, 0.20),
+                                          MakeStem(0.0, 10.6, 0.25, {"occluded"})};
+  const std::string svg = PlotMapSvg(MapOptions{}, stems, {{1.0, 0.0}, {0.0, 1.0}, {-1.0, 0.0}});
+  EXPECT_EQ(svg.rfind("<svg", 0), 0u);
+  EXPECT_NE(svg.find("</svg>"), std::string::npos);
+  EXPECT_EQ(Count(svg, "<title>tree "), 3);
+  EXPECT_NE(svg.find("<title>tree 1: DBH 30.0 cm</title>"), std::string::npos);
+  EXPECT_NE(svg.find("<title>tree 3: DBH 25.0 cm, occluded</title>"), std::string::npos);
+  // Two plain stems inside the plot, the third outside it: grey, though flagged.
+  EXPECT_EQ(Count(svg, "fill=\"#2f5d2a\""), 2);
+  EXPECT_EQ(Count(svg, "fill=\"#b8b8b0\""), 1);
+  EXPECT_EQ(Count(svg, "<polyline"), 1);
+}
+
+TEST(PlotMapSvg, NearerStemsSitNearerTheCentreOfTheMap) {
+  MapOptions o;
+  o.size_px = 400;
+  const std::string svg = PlotMapSvg(o, {MakeStem(2.0, 0.0, 0.3), MakeStem(8.0, 0.0, 0.3)}, {});
+  // Stems on +x: the first circle's cx lies between the centre (200) and the second's.
+  auto cx_of = [&](int k) {
+    size_t p = 0;
+    for (int i = 0; i <= k; ++i) p = svg.find("<title>tree", p + 1);
+    const size_t c = svg.rfind("<circle cx=\"", p);
+    return std::stod(svg.substr(c + 12));
+  };
+  EXPECT_GT(cx_of(0), 200.0);
+  EXPECT_GT(cx_of(1), cx_of(0));
+}
+
+TEST(MapOptions, RejectsNonsense) {
+  MapOptions o;
+  o.size_px = 10;
+  EXPECT_THROW(o.Check(), InputError);
+  o = MapOptions{};
+  o.plot_radius_m = 0.0;
+  EXPECT_THROW(o.Check(), InputError);
+}
+
+}  // namespace
+}  // namespace stemmap::report

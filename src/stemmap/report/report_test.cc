@@ -1,0 +1,107 @@
+#include "stemmap/report/report.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+
+#include "stemmap/core/io.h"
+
+namespace stemmap::report {
+namespace {
+
+// A camera on the arm's circle at azimuth `az_deg`, 1.3 m up, looking outward.
+Rigid3d OutwardPose(double az_deg) {
+  const double th = az_deg * M_PI / 180.0;
+  Eigen::Matrix3d rot;  // columns: camera x (right), y (down), z (forward) in the plot frame
+  rot << std::sin(th), 0, std::cos(th), -std::cos(th), 0, std::sin(th), 0, -1, 0;
+  return {Eigen::Quaterniond(rot), Eigen::Vector3d(std::cos(th), std::sin(th), 1.3)};
+}
+
+stems::Stem MakeStem(double x, double y, double dbh_m) {
+  stems::Stem s;
+  s.centre_xy = {x, y};
+  s.dbh_m = dbh_m;
+  s.ground_z_m = 1.3 - 1.37;  // breast height level with the camera
+  return s;
+}
+
+const PinholeCamera kCamera = PinholeCamera::FromHfov(640, 360, 60.0);
+
+TEST(ProjectSilhouette, EdgesOfAStemStraightAheadAreSymmetric) {
+  const auto e = ProjectSilhouette(kCamera, OutwardPose(0.0), {6.0, 0.0}, 0.15, 1.3);
+  ASSERT_TRUE(e.has_value());
+  // Seen from 5 m, the edges lie at ±asin(r/d) off the axis.
+  const double half_px = kCamera.fx * std::tan(std::asin(0.15 / 5.0));
+  EXPECT_NEAR(e->left.x(), kCamera.cx - half_px, 1e-6);
+  EXPECT_NEAR(e->right.x(), kCamera.cx + half_px, 1e-6);
+  EXPECT_NEAR(e->left.y(), kCamera.cy, 1e-6);
+}
+
+TEST(ProjectSilhouette, NothingForAStemBehindOrAroundTheCamera) {
+  EXPECT_FALSE(ProjectSilhouette(kCamera, OutwardPose(0.0), {-4.0, 0.0}, 0.15, 1.3));
+  EXPECT_FALSE(ProjectSilhouette(kCamera, OutwardPose(0.0), {1.05, 0.0}, 0.15, 1.3));
+  EXPECT_FALSE(ProjectSilhouette(kCamera, OutwardPose(0.0), {6.0, 0.0}, 0.0, 1.3));
+}
+
+TEST(BestView, PrefersAClearViewToACentredButHiddenOne) {
+  // Stem 1 at 6 m on +x; stem 0, nearer and a little to the right, covers part of it seen from
+  // the arm at 0°, not from the arm at 20°, where stem 1 is 24° off-centre.
+  const std::vector<stems::Stem> stems = {MakeStem(3.0, -0.2, 0.3), MakeStem(6.0, 0.0, 0.3)};
+  const std::vector<StampedPose> keyframes = {{0.0, OutwardPose(0.0)}, {1.0, OutwardPose(20.0)}};
+  EXPECT_EQ(BestView(kCamera, keyframes, stems, 1, 1.37), 1);
+  EXPECT_EQ(BestView(kCamera, keyframes, stems, 0, 1.37), 0);
+  // A stem no keyframe sees.
+  const std::vector<stems::Stem> behind = {MakeStem(-6.0, 0.0, 0.3)};
+  EXPECT_EQ(BestView(kCamera, keyframes, behind, 0, 1.37), -1);
+}
+
+TEST(WriteReport, ShowsEachTreeWithTicksOnItsEdges) {
+  const std::vector<stems::Stem> stems = {MakeStem(6.0, 0.0, 0.3)};
+  const std::vector<StampedPose> keyframes = {{0.0, OutwardPose(0.0)}};
+  // A dark trunk exactly as wide as the stem, on a bright background.
+  const auto edges = ProjectSilhouette(kCamera, OutwardPose(0.0), {6.0, 0.0}, 0.15, 1.3);
+  ASSERT_TRUE(edges.has_value());
+  cv::Mat image(kCamera.height, kCamera.width, CV_8UC3, cv::Scalar(200, 200, 200));
+  image
+      .colRange(static_cast<int>(std::lround(edges->left.x())),
+                static_cast<int>(std::lround(edges->right.x())))
+      .setTo(cv::Scalar(40, 50, 60));
+  const std::vector<cv::Mat> images = {image};
+  ReportInput in;
+  in.stems = &stems;
+  in.camera = &kCamera;
+  in.keyframes = &keyframes;
+  in.images = &images;
+  in.title = "plot <A>";
+  in.figures = {{"stems/ha", "32"}};
+  const auto dir = std::filesystem::path(::testing::TempDir()) / "stemmap_report_test";
+  std::filesystem::remove_all(dir);
+  ReportOptions o;
+  const ReportSummary s = WriteReport(o, in, dir);
+  EXPECT_EQ(s.thumbnails, 1);
+  const std::string html = ReadFileToString(dir / "report.html");
+  EXPECT_NE(html.find("<title>plot &lt;A&gt;</title>"), std::string::npos);
+  EXPECT_NE(html.find("<img src=\"report/tree_001.jpg\""), std::string::npos);
+  EXPECT_NE(html.find("<svg"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(dir / "map.svg"));
+  const cv::Mat thumb = cv::imread((dir / "report/tree_001.jpg").string());
+  ASSERT_FALSE(thumb.empty());
+  EXPECT_EQ(thumb.rows, o.thumbnail_height_px);
+  // The green ticks sit on the trunk's two edges: the greenest columns lie symmetric about the
+  // thumbnail's middle, one trunk width apart (in thumbnail pixels).
+  const double scale =
+      thumb.rows / std::ceil(2 * 1.25 * std::max(1.6 * (edges->right.x() - edges->left.x()), 40.0));
+  std::vector<int> green_cols;
+  for (int x = 0; x < thumb.cols; ++x) {
+    const cv::Vec3b p = thumb.at<cv::Vec3b>(thumb.rows / 2 - 8, x);
+    if (p[1] > 150 && p[1] > p[0] + 60 && p[1] > p[2] + 60) green_cols.push_back(x);
+  }
+  ASSERT_FALSE(green_cols.empty());
+  const double width_thumb = (edges->right.x() - edges->left.x()) * scale;
+  EXPECT_NEAR(green_cols.back() - green_cols.front(), width_thumb, 3.0);
+  EXPECT_NEAR(0.5 * (green_cols.back() + green_cols.front()), 0.5 * thumb.cols, 3.0);
+}
+
+}  // namespace
+}  // namespace stemmap::report
