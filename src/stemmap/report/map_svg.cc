@@ -65,9 +65,10 @@ std::string PlotMapSvg(const MapOptions& o, const std::vector<stems::Stem>& stem
     const char* fill = !inside ? "#b8b8b0" : s.flags.empty() ? "#2f5d2a" : "#e08a1e";
     const double r_px = std::max(2.0, 0.5 * s.dbh_m * o.stem_scale * px_per_m);
     svg += fmt::format(
-        "<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"{:.1f}\" fill=\"{}\"><title>tree {}: DBH "
-        "{:.1f} cm{}{}</title></circle>\n<text x=\"{:.1f}\" y=\"{:.1f}\">{}</text>\n",
-        sx(s.centre_xy.x()), sy(s.centre_xy.y()), r_px, fill, id, 100 * s.dbh_m,
+        "<a href=\"#tree-{}\"><circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"{:.1f}\" fill=\"{}\">"
+        "<title>tree {}: DBH {:.1f} cm{}{}</title></circle>\n<text x=\"{:.1f}\" "
+        "y=\"{:.1f}\">{}</text></a>\n",
+        id, sx(s.centre_xy.x()), sy(s.centre_xy.y()), r_px, fill, id, 100 * s.dbh_m,
         s.flags.empty() ? "" : ", ", fmt::join(s.flags, ", "), sx(s.centre_xy.x()) + r_px + 1,
         sy(s.centre_xy.y()) - r_px, id);
   }

@@ -18,7 +18,8 @@ struct MapOptions {
 
 // Stem map of the plot as a standalone SVG: the plot circle, 2-m rings, the camera's path, every
 // stem at its position (plot frame, x to the right, y up) labelled with its tree_id (order in
-// `stems`, as trees.csv), flagged stems in orange, stems outside the plot radius in grey.
+// `stems`, as trees.csv) and linked to `#tree-N` (the report's row), flagged stems in orange,
+// stems outside the plot radius in grey.
 std::string PlotMapSvg(const MapOptions& options, const std::vector<stems::Stem>& stems,
                        const std::vector<Eigen::Vector2d>& camera_path_xy);
 

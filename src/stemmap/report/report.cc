@@ -198,10 +198,11 @@ ReportSummary WriteReport(const ReportOptions& o, const ReportInput& in,
     }
     const bool inside = s.centre_xy.norm() <= o.map.plot_radius_m;
     rows += fmt::format(
-        "<tr{}><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.1f}</td>"
+        "<tr "
+        "id=\"tree-{}\"{}><td>{}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.2f}</td><td>{:.1f}</td>"
         "<td><b>{:.1f}</b></td><td>{:.1f}</td><td>{}</td><td>{}</td>{}</tr>\n",
-        inside ? "" : " class=\"out\"", id, s.centre_xy.x(), s.centre_xy.y(), s.centre_xy.norm(),
-        AzimuthDeg(s.centre_xy), 100 * s.dbh_m, 100 * s.dbh_sd_m, s.n_views,
+        id, inside ? "" : " class=\"out\"", id, s.centre_xy.x(), s.centre_xy.y(),
+        s.centre_xy.norm(), AzimuthDeg(s.centre_xy), 100 * s.dbh_m, 100 * s.dbh_sd_m, s.n_views,
         HtmlEscape(fmt::format("{}", fmt::join(s.flags, " "))), picture);
   }
   std::string figures;

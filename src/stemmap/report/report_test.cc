@@ -84,6 +84,9 @@ TEST(WriteReport, ShowsEachTreeWithTicksOnItsEdges) {
   EXPECT_NE(html.find("<title>plot &lt;A&gt;</title>"), std::string::npos);
   EXPECT_NE(html.find("<img src=\"report/tree_001.jpg\""), std::string::npos);
   EXPECT_NE(html.find("<svg"), std::string::npos);
+  // The map's stem links to its row.
+  EXPECT_NE(html.find("<a href=\"#tree-1\">"), std::string::npos);
+  EXPECT_NE(html.find("<tr id=\"tree-1\">"), std::string::npos);
   EXPECT_TRUE(std::filesystem::exists(dir / "map.svg"));
   const cv::Mat thumb = cv::imread((dir / "report/tree_001.jpg").string());
   ASSERT_FALSE(thumb.empty());
