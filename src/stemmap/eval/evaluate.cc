@@ -110,6 +110,8 @@ MatchStats MatchAndScore(const EvaluateOptions& o, const std::vector<StemRecord>
         ++s.n_matched;
         ++s.n_predicted;
         dbh_pairs.emplace_back(predicted[i].dbh_cm, truth[j].dbh_cm);
+        s.pairs.push_back(
+            {truth[j].id, predicted[i].id, truth[j].dbh_cm, predicted[i].dbh_cm, match_m[i]});
         pos_sq += match_m[i] * match_m[i];
         pos_sum += match_m[i];
       }

@@ -23,6 +23,13 @@ struct DbhStats {
   double share_lt1_pct = 0, share_1to2_pct = 0, share_2to3_pct = 0, share_ge3_pct = 0;
 };
 
+// One scored truth tree and the prediction matched to it.
+struct MatchedPair {
+  int truth_id = 0, predicted_id = 0;
+  double truth_dbh_cm = 0, predicted_dbh_cm = 0;
+  double position_error_m = 0;
+};
+
 struct MatchStats {
   int n_truth = 0;      // truth trees in the plot above the threshold
   int n_predicted = 0;  // predictions that count (in the plot, or matched to a scored tree)
@@ -32,6 +39,7 @@ struct MatchStats {
   DbhStats dbh;
   std::vector<int> missed_truth_ids;
   std::vector<int> false_prediction_ids;
+  std::vector<MatchedPair> pairs;  // in the order of the predictions
 };
 
 struct TrajectoryStats {

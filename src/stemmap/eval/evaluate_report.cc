@@ -31,6 +31,18 @@ std::string MatchTable(const MatchStats& s) {
       d.share_2to3_pct, d.share_ge3_pct);
 }
 
+nlohmann::json PairsJson(const std::vector<MatchedPair>& pairs) {
+  nlohmann::json j = nlohmann::json::array();
+  for (const MatchedPair& p : pairs) {
+    j.push_back({{"truth_id", p.truth_id},
+                 {"predicted_id", p.predicted_id},
+                 {"truth_dbh_cm", p.truth_dbh_cm},
+                 {"predicted_dbh_cm", p.predicted_dbh_cm},
+                 {"position_error_m", p.position_error_m}});
+  }
+  return j;
+}
+
 nlohmann::json MatchJson(const MatchStats& s) {
   const DbhStats& d = s.dbh;
   return {{"recall", s.recall},
@@ -42,6 +54,7 @@ nlohmann::json MatchJson(const MatchStats& s) {
           {"position_mean_m", s.position_mean_m},
           {"missed_truth_ids", s.missed_truth_ids},
           {"false_prediction_ids", s.false_prediction_ids},
+          {"pairs", PairsJson(s.pairs)},
           {"dbh",
            {{"n", d.n},
             {"mae_cm", d.mae_cm},

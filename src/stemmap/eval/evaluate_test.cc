@@ -82,6 +82,14 @@ TEST(Evaluate, MissingAndExtraTreesLowerRecallAndPrecision) {
   EXPECT_LT(e.raw.precision, 1.0);
   EXPECT_EQ(e.raw.missed_truth_ids, std::vector<int>{missing_id});
   EXPECT_EQ(e.raw.false_prediction_ids, std::vector<int>{999});
+  // One pair per hit, each a tree with itself.
+  ASSERT_EQ(static_cast<int>(e.raw.pairs.size()), e.raw.n_matched);
+  for (const MatchedPair& p : e.raw.pairs) {
+    EXPECT_EQ(p.truth_id, p.predicted_id);
+    EXPECT_EQ(p.truth_dbh_cm, p.predicted_dbh_cm);
+    EXPECT_NE(p.truth_id, missing_id);
+    EXPECT_EQ(p.position_error_m, 0.0);
+  }
 }
 
 TEST(Evaluate, PlotRadiusAndThresholdSelectScoredTrees) {
