@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numeric>
 #include <opencv2/imgproc.hpp>
 #include <tuple>
 #include <utility>
@@ -30,6 +31,9 @@ void ProcessOptions::Check() const {
   }
   if (!(one_sided_max_over_cloud >= 1)) {
     throw InputError("a one-sided fit's bound over the cloud's width must be at least 1");
+  }
+  if (!(min_bark_gap_m >= 0 && min_bark_gap_m < 1)) {
+    throw InputError("the smallest gap between two stems' bark must lie in [0, 1) m");
   }
   if (!(min_core_share >= 0 && min_core_share <= 1)) {
     throw InputError("the share of a part's width a core must reach must lie in [0, 1]");
@@ -131,6 +135,38 @@ double CloudRadius(const stems::Stem& s) {
 
 }  // namespace
 
+int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems) {
+  std::vector<size_t> order(stems->size());
+  std::iota(order.begin(), order.end(), 0);
+  // The farthest-moved fit is judged first; ties keep the list's order.
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return (*stems)[a].fit_shift_m > (*stems)[b].fit_shift_m;
+  });
+  std::vector<char> drop(stems->size(), 0);
+  for (size_t i : order) {
+    const stems::Stem& a = (*stems)[i];
+    for (size_t j = 0; j < stems->size() && !drop[i]; ++j) {
+      const stems::Stem& b = (*stems)[j];
+      if (j == i || drop[j] || b.fit_shift_m > a.fit_shift_m) continue;
+      const double gap = (a.centre_xy - b.centre_xy).norm() - 0.5 * (a.dbh_m + b.dbh_m);
+      if (gap < min_bark_gap_m) drop[i] = 1;
+    }
+  }
+  int dropped = 0;
+  std::vector<stems::Stem> kept;
+  for (size_t i = 0; i < stems->size(); ++i) {
+    if (drop[i]) {
+      ++dropped;
+      spdlog::debug("stems: ({:.2f}, {:.2f}) dropped: its fit moved {:.2f} m onto another stem",
+                    (*stems)[i].centre_xy.x(), (*stems)[i].centre_xy.y(), (*stems)[i].fit_shift_m);
+    } else {
+      kept.push_back(std::move((*stems)[i]));
+    }
+  }
+  *stems = std::move(kept);
+  return dropped;
+}
+
 SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& s,
                                      const stems::TangentFit& f, double px_m) {
   // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
@@ -230,6 +266,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     s.dbh_tangent_m = 2 * f.radius_m;
     s.dbh_tangent_sd_m = 2 * f.radius_sd_m;
     // The silhouettes place the stem better than the cloud's depth does, whichever DBH is kept.
+    s.fit_shift_m = (f.centre - s.centre_xy).norm();
     s.centre_xy = f.centre;
     s.n_views = f.views;
     s.arc_deg = f.arc_deg;
@@ -276,10 +313,11 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       ++dropped;
     }
   }
+  const int twice = DropStemsFittedTwice(o.min_bark_gap_m, &kept);
   spdlog::info(
       "stems: tangent rays fitted {} of {} stems ({} from the cores of parts); {} parts "
-      "without silhouettes dropped",
-      fitted, stems->size(), from_cores, dropped);
+      "without silhouettes dropped, {} fitted onto another stem",
+      fitted, stems->size(), from_cores, dropped, twice);
   *stems = std::move(kept);
 }
 
@@ -387,6 +425,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
        {"one_sided_min_cloud_radius_m", o.one_sided_min_cloud_radius_m},
        {"min_core_share", o.min_core_share},
+       {"min_bark_gap_m", o.min_bark_gap_m},
        {"write_report", o.write_report},
        {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},

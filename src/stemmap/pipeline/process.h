@@ -35,6 +35,10 @@ struct ProcessOptions {
   // the part is kept on its cloud (one stem, perhaps widened by a shrub), only by cores at least
   // this share of its width (a narrower one is a piece of the stem's bark).
   double min_core_share = 0.6;
+  // Two listed stems whose bark comes closer than this at breast height are one stem fitted
+  // twice (a fit that slid along its line of sight onto a nearer stem's silhouette): the one
+  // whose fit moved farther from its points is dropped.
+  double min_bark_gap_m = 0.02;
   // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
   // camera are used instead of tracking again; empty: track the video.
   std::filesystem::path from_track;
@@ -78,6 +82,10 @@ enum class SilhouetteVerdict {
 // `px_m` is one pixel's footprint at the stem's distance.
 SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& stem,
                                      const stems::TangentFit& fit, double px_m);
+
+// Drops the stems whose bark comes within `min_bark_gap_m` of another's (ProcessOptions), the
+// one whose fit moved farther from its points (Stem::fit_shift_m) first. Returns how many.
+int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems);
 
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
 // method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution

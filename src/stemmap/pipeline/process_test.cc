@@ -24,6 +24,33 @@ struct Case {
   }
 };
 
+stems::Stem Fitted(double x, double y, double dbh_m, double shift_m) {
+  stems::Stem s;
+  s.centre_xy = {x, y};
+  s.dbh_m = dbh_m;
+  s.fit_shift_m = shift_m;
+  return s;
+}
+
+TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
+  // A 27.8-cm stem, and a 17.8-cm fit that moved 0.47 m from its points to touch it; a third
+  // stem 0.46 m from the first, and a far one that moved as much, stay.
+  std::vector<stems::Stem> stems = {
+      Fitted(4.42, 3.82, 0.278, 0.01), Fitted(4.24, 3.97, 0.178, 0.47),
+      Fitted(4.42, 4.12 + 0.16, 0.10, 0.02), Fitted(-6.0, 1.0, 0.30, 0.47)};
+  EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
+  ASSERT_EQ(stems.size(), 3u);
+  EXPECT_DOUBLE_EQ(stems[0].dbh_m, 0.278);
+  EXPECT_DOUBLE_EQ(stems[1].dbh_m, 0.10);
+  EXPECT_DOUBLE_EQ(stems[2].centre_xy.x(), -6.0);
+}
+
+TEST(DropStemsFittedTwice, OfTwoEquallyMovedStemsOneStays) {
+  std::vector<stems::Stem> stems = {Fitted(5.0, 0.0, 0.30, 0.0), Fitted(5.0, 0.30, 0.30, 0.0)};
+  EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
+  EXPECT_EQ(stems.size(), 1u);
+}
+
 TEST(JudgeSilhouetteFit, UsesAFitThatAgreesWithTheCloud) {
   const Case c;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);

@@ -60,6 +60,7 @@ struct Stem {
   double arc_deg = 0.0;  // spread of the viewing directions
   double lean_deg = 0.0;
   double pass_through = 0.0;  // free-space ratio
+  double fit_shift_m = 0.0;   // how far the silhouette fit moved the centre from the cloud's
   // The points were smeared along the line of sight (far stems): centre and width come from
   // their spread across it, and neither is a reliable check on the silhouettes.
   bool depth_smeared = false;
