@@ -426,6 +426,8 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"one_sided_min_cloud_radius_m", o.one_sided_min_cloud_radius_m},
        {"min_core_share", o.min_core_share},
        {"min_bark_gap_m", o.min_bark_gap_m},
+       {"max_lean_deg", o.stems.max_lean_deg},
+       {"confirm_lean_deg", o.stems.confirm_lean_deg},
        {"write_report", o.write_report},
        {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},

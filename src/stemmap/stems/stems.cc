@@ -24,6 +24,9 @@ void StemOptions::Check() const {
   if (dbh_method != "tangent" && dbh_method != "slice" && dbh_method != "circle") {
     throw InputError(fmt::format("DBH method '{}' is not tangent, slice or circle", dbh_method));
   }
+  if (!(confirm_lean_deg > 0 && confirm_lean_deg <= max_lean_deg)) {
+    throw InputError("the lean that needs confirming must lie in (0, max_lean_deg]");
+  }
   if (!(weak_support_share >= 0 && weak_support_share <= 1)) {
     throw InputError("weak_support_share must be in [0, 1]");
   }
@@ -368,6 +371,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   s.n_points = static_cast<int>(slice.size());
   s.n_views = static_cast<int>(views.size());
   s.lean_deg = lean_deg;
+  if (lean_deg > o.confirm_lean_deg) s.weak_support = true;
   if (s.n_views < 3) s.flags.push_back("few_views");
   return s;
 }

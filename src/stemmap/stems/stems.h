@@ -41,6 +41,10 @@ struct StemOptions {
   double min_diameter_m = 0.05;
   double max_diameter_m = 1.2;
   double max_lean_deg = 15.0;
+  // Parts leaning further than this (up to max_lean_deg) are stems only if two-sided
+  // silhouettes confirm them (kept as weak_support): a trunk seldom leans so far at breast
+  // height, the cloud of a shrub, a sapling or two things side by side often does.
+  double confirm_lean_deg = 8.0;
   double slice_half_m = 0.05;    // breast-height slice: ±5 cm (the paper's 0.1 m)
   double free_space_veto = 0.4;  // rays through the stem over rays ending on it: not a stem
   // tangent (rays tangent to the silhouettes, the slice width where no silhouette fits; the
@@ -65,7 +69,8 @@ struct Stem {
   // their spread across it, and neither is a reliable check on the silhouettes.
   bool depth_smeared = false;
   // Too little breast-height surface for its distance (a stem mostly behind shrubs, or clutter):
-  // a stem only if two-sided silhouettes confirm it.
+  // a stem only if two-sided silhouettes confirm it. Also set for a part leaning further than
+  // confirm_lean_deg.
   bool weak_support = false;
   std::vector<std::string> flags;
   // For a depth-smeared part: the stems its denser cores make, when it has two or more.

@@ -205,6 +205,33 @@ TEST(Stems, NearTrunkWithStrayPointsAboveIsVertical) {
   EXPECT_LT(res.stems[0].lean_deg, 5.0);
 }
 
+// Two trunks 4 m out, one upright and one leaning 11°: both are found, the leaning one left for
+// two-sided silhouettes to confirm (weak_support), the upright one not.
+TEST(Stems, ALeaningPartNeedsConfirming) {
+  Rng rng(7);
+  std::vector<dense::CloudPoint> cloud = FlatGround(&rng);
+  const double lean = 11.0 * M_PI / 180.0;
+  for (const auto& [c, tilt] :
+       {std::pair{Eigen::Vector2d(4, 0), 0.0}, std::pair{Eigen::Vector2d(0, 4), lean}}) {
+    const double bearing = std::atan2(c.y(), c.x());
+    for (int i = 0; i < kTrunkPoints; ++i) {
+      const double a = bearing + M_PI + rng.Uniform(-1.2, 1.2), z = rng.Uniform(0.2, 2.6);
+      // Leaning away from the centre: the axis moves outward by tan(lean) per metre up.
+      const Eigen::Vector2d axis = c + std::tan(tilt) * (z - 1.3) * c.normalized();
+      AddSeenFromArm(
+          Eigen::Vector3d(axis.x() + 0.15 * std::cos(a), axis.y() + 0.15 * std::sin(a), z), &rng,
+          &cloud);
+    }
+  }
+  const StemsResult res = DetectWithoutBearingSplit(cloud);
+  ASSERT_EQ(res.stems.size(), 2u);
+  for (const Stem& s : res.stems) {
+    const bool leaning = s.centre_xy.y() > 2.0;
+    EXPECT_NEAR(s.lean_deg, leaning ? 11.0 : 0.0, 2.0);
+    EXPECT_EQ(s.weak_support, leaning);
+  }
+}
+
 // Two thin far trunks two degrees apart from the centre and 1 m apart in range, with stray depths
 // bridging them: stereo smears them into one part that no single stem fits. Its dense cores are
 // kept as alternatives, one at each trunk.
