@@ -220,7 +220,12 @@ ReportSummary WriteReport(const ReportOptions& o, const ReportInput& in,
       "<p>Each picture is the keyframe that shows the stem best at breast height ({3:g} m above "
       "the ground at the stem): the green ticks are where the reported DBH puts the stem's "
       "edges, the yellow line is breast height. Ticks off the bark edges mean a diameter to "
-      "check. Grey rows lie outside the {4:g}-m plot.</p>\n<table>\n<tr><th>tree</th><th>x "
+      "check. Grey rows lie outside the {4:g}-m plot. Flags: <i>occluded</i> a nearer stem hid "
+      "part of its edges; <i>one_sided</i> both edges were seen in too few views, the DBH rests "
+      "on one side; <i>no_silhouette</i> no edges fitted, the DBH is the point cloud's width; "
+      "<i>depth_smeared</i> a far stem placed by its width across the line of sight; "
+      "<i>few_views</i> fewer than 4 views measured it. Flagged stems are the ones to look "
+      "at first.</p>\n<table>\n<tr><th>tree</th><th>x "
       "m</th><th>y m</th><th>distance m</th><th>azimuth &deg;</th><th>DBH cm</th><th>SD "
       "cm</th><th>views</th><th>flags</th><th>at breast height</th></tr>\n{5}</table>\n"
       "</body></html>\n",
