@@ -1,5 +1,7 @@
 #include "stemmap/track/vertical.h"
 
+#include <spdlog/spdlog.h>
+
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -66,6 +68,8 @@ std::vector<int> GroupRaysByTrunk(const VerticalOptions& o,
       votes[c] = 0;  // its voters passed too far from the cell's centre
       continue;
     }
+    spdlog::trace("vertical: trunk {} at ({:.2f}, {:.2f}), {} segments", groups, centre.x(),
+                  centre.y(), members);
     ++groups;
   }
   for (int& g : group) {
