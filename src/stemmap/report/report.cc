@@ -162,9 +162,9 @@ ReportSummary WriteReport(const ReportOptions& o, const ReportInput& in,
   if (!in.stems || !in.camera || !in.keyframes || !in.images) {
     throw InputError("report: stems, camera, keyframes and images are required");
   }
-  if (in.images->size() != in.keyframes->size()) {
-    throw InputError("report: one image per keyframe is required");
-  }
+  // Without the keyframes' images (a track that kept none) the report still lists every tree.
+  const bool have_images = in.images->size() == in.keyframes->size();
+  if (!have_images) spdlog::warn("report: no keyframe images, so no pictures of the stems");
   const std::vector<stems::Stem>& stems = *in.stems;
   ReportSummary summary;
   // Pictures of an earlier run's trees would outlive their rows.
@@ -179,9 +179,9 @@ ReportSummary WriteReport(const ReportOptions& o, const ReportInput& in,
   for (size_t i = 0; i < stems.size(); ++i) {
     const stems::Stem& s = stems[i];
     const int id = static_cast<int>(i) + 1;
-    std::string picture = "<td>not in view</td>";
+    std::string picture = have_images ? "<td>not in view</td>" : "<td>no picture kept</td>";
     const int k = BestView(*in.camera, *in.keyframes, stems, i, o.breast_height_m);
-    if (k >= 0 && !(*in.images)[k].empty()) {
+    if (have_images && k >= 0 && !(*in.images)[k].empty()) {
       const auto edges =
           ProjectSilhouette(*in.camera, (*in.keyframes)[k].world_from_cam, s.centre_xy,
                             0.5 * s.dbh_m, s.ground_z_m + o.breast_height_m);

@@ -27,7 +27,8 @@ struct ReportInput {
   const std::vector<stems::Stem>* stems = nullptr;  // tree_id = index + 1, as trees.csv
   const PinholeCamera* camera = nullptr;            // of `images`
   const std::vector<StampedPose>* keyframes = nullptr;
-  const std::vector<cv::Mat>* images = nullptr;  // BGR keyframe images, one per keyframe
+  // BGR keyframe images, one per keyframe; any other count: no pictures.
+  const std::vector<cv::Mat>* images = nullptr;
   std::vector<Eigen::Vector2d> camera_path_xy;
   std::string title;
   std::vector<std::pair<std::string, std::string>> figures;  // label, value: plot figures

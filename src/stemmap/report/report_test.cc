@@ -106,5 +106,22 @@ TEST(WriteReport, ShowsEachTreeWithTicksOnItsEdges) {
   EXPECT_NEAR(0.5 * (green_cols.back() + green_cols.front()), 0.5 * thumb.cols, 3.0);
 }
 
+TEST(WriteReport, ListsTheTreesWithoutPicturesWhenNoImagesWereKept) {
+  const std::vector<stems::Stem> stems = {MakeStem(6.0, 0.0, 0.3)};
+  const std::vector<StampedPose> keyframes = {{0.0, OutwardPose(0.0)}};
+  const std::vector<cv::Mat> no_images;
+  ReportInput in;
+  in.stems = &stems;
+  in.camera = &kCamera;
+  in.keyframes = &keyframes;
+  in.images = &no_images;
+  const auto dir = std::filesystem::path(::testing::TempDir()) / "stemmap_report_no_images";
+  std::filesystem::remove_all(dir);
+  EXPECT_EQ(WriteReport({}, in, dir).thumbnails, 0);
+  const std::string html = ReadFileToString(dir / "report.html");
+  EXPECT_NE(html.find("<tr id=\"tree-1\">"), std::string::npos);
+  EXPECT_NE(html.find("no picture kept"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace stemmap::report
