@@ -98,11 +98,62 @@ struct Edges {
   double x_left = 0, x_right = 0, y = 0;
 };
 
+// Silhouette as the strongest brightness step within `half_window` of x_pred whose outer side
+// (dir: outward) looks like the background and whose inner side does not; `row` sums `rows`
+// rows of the image, the lumas are per pixel. Sub-pixel by a parabola through the peak.
+bool BrightnessEdge(const TangentOptions& o, const std::vector<double>& row, int rows,
+                    double stem_luma, double bg_luma, int dir, double x_pred, double half_window,
+                    double* x_edge) {
+  const int width = static_cast<int>(row.size());
+  if (std::abs(bg_luma - stem_luma) < o.min_brightness_contrast) return false;
+  int best = -1;
+  double best_g = 0;
+  // Mean brightness 2-4 px to one side of i (towards: outward +1, inward -1).
+  auto side_luma = [&](int i, int towards) {
+    double sum = 0;
+    int n = 0;
+    for (int j = 2; j <= 4; ++j) {
+      const int q = i + towards * dir * j;
+      if (q >= 0 && q < width) sum += row[q], ++n;
+    }
+    return n ? sum / (n * rows) : -1e9;
+  };
+  for (int i = 1; i < width - 1; ++i) {
+    if (std::abs(i - x_pred) > half_window) continue;
+    const double out = std::abs(side_luma(i, 1) - bg_luma);
+    const double in = std::abs(side_luma(i, -1) - bg_luma);
+    if (!(out < in && out < 0.5 * o.min_brightness_contrast && in >= o.min_brightness_contrast))
+      continue;
+    const double g = std::abs(row[i + 1] - row[i - 1]);
+    if (g > best_g) best_g = g, best = i;
+  }
+  if (best < 2 || best > width - 3 || best_g < 0.5 * o.min_brightness_contrast * rows) {
+    return false;
+  }
+  const double sign = row[best + 1] >= row[best - 1] ? 1.0 : -1.0;
+  const double gm = sign * (row[best] - row[best - 2]), gp = sign * (row[best + 2] - row[best]);
+  const double den = gm - 2 * best_g + gp;
+  const double off = den < 0 ? 0.5 * (gm - gp) / den : 0.0;
+  *x_edge = best + std::clamp(off, -0.5, 0.5);
+  return true;
+}
+
+// Where nearer stems leave a view's edge search free, in image columns (side 0: the stem's image
+// left, 1: its right). The stem shows from its side's predicted edge inward to inner_end (a
+// nearer stem covers the rest), and what lies beyond the edge is seen out to outer_end.
+struct EdgeWindow {
+  std::array<double, 2> inner_end = {1e9, -1e9};
+  std::array<double, 2> outer_end = {-1e9, 1e9};
+  std::array<bool, 2> hidden = {false, false};
+};
+
 // Silhouette columns of the stem in keyframe k at image row y0, from the disagreement between
 // k and its neighbours warped through the stem's front plane.
 Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eigen::Vector2d& c0,
-                double r0, double breast_z, double x_pred_left, double x_pred_right, double y0) {
+                double r0, double breast_z, double x_pred_left, double x_pred_right, double y0,
+                const EdgeWindow& window) {
   Edges edges;
+  if (window.hidden[0] && window.hidden[1]) return edges;
   const PinholeCamera& cam = *v.camera;
   const std::vector<StampedPose>& kfs = *v.keyframes;
   const cv::Mat& img = (*v.gray)[k];
@@ -173,15 +224,6 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
     const int a = std::max(0, i - 1), b = std::min(width - 1, i + 1);
     smooth[i] = (diff[a] + diff[i] + diff[b]) / 3.0;
   }
-  // Levels: inside the predicted stem (its middle half) and outside it.
-  const double xl = x_pred_left - x_begin, xr = x_pred_right - x_begin, xm = 0.5 * (xl + xr);
-  std::vector<double> inside, out_left, out_right;
-  for (int i = 0; i < width; ++i) {
-    if (std::abs(i - xm) < 0.25 * (xr - xl)) inside.push_back(smooth[i]);
-    if (i < xl - 3) out_left.push_back(smooth[i]);
-    if (i > xr + 3) out_right.push_back(smooth[i]);
-  }
-  const double stem = Median(inside);
   // Brightness across the rows, for sub-pixel refinement on the image edge itself.
   std::vector<double> row(width, 0.0);
   for (int y = y_begin; y <= y_end; ++y) {
@@ -205,79 +247,58 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
     const double off = den < 0 ? 0.5 * (gm - gp) / den : 0.0;
     return x_begin + best + std::clamp(off, -0.5, 0.5);
   };
-  // Where what lies behind disagrees too little (plain sky, a smooth far background), the
-  // silhouette is the strongest brightness step near the predicted edge. Either sign: a sunlit
-  // side can be brighter than the background while the stem's middle is darker.
+  const double xl = x_pred_left - x_begin, xr = x_pred_right - x_begin;
   const int rows = 2 * o.rows_half + 1;
-  std::vector<double> row_inside;
-  for (int i = 0; i < width; ++i) {
-    if (std::abs(i - xm) < 0.25 * (xr - xl)) row_inside.push_back(row[i]);
-  }
-  const double stem_luma = Median(row_inside) / rows;
-  auto brightness_edge = [&](int dir, double x_pred, double* x_edge) {
-    std::vector<double> beyond;
+  // One side's silhouette (dir -1: left, +1: right). Levels inside the stem come from the middle
+  // half of the part this side sees (all of it, unless a nearer stem covers some), levels
+  // outside from what lies beyond the edge up to the next nearer stem.
+  auto scan = [&](int dir, double* x_edge) {
+    const int side = dir > 0;
+    const double x_pred = dir < 0 ? xl : xr;
+    const double inner = window.inner_end[side] - x_begin;
+    const double outer = window.outer_end[side] - x_begin;
+    const double lo = dir < 0 ? xl : std::max(xl, inner), hi = dir < 0 ? std::min(xr, inner) : xr;
+    const double xm = 0.5 * (lo + hi);
+    std::vector<double> inside, outside, row_inside, row_beyond;
     for (int i = 0; i < width; ++i) {
-      if (dir * (i - x_pred) > 3) beyond.push_back(row[i]);
-    }
-    if (beyond.size() < 3) return false;
-    const double bg_luma = Median(beyond) / rows;
-    if (std::abs(bg_luma - stem_luma) < o.min_brightness_contrast) return false;
-    const double window = std::max(3.0, 0.2 * (xr - xl));
-    int best = -1;
-    double best_g = 0;
-    // Mean brightness 2-4 px to one side of i (dir: outward +1, inward -1).
-    auto side_luma = [&](int i, int towards) {
-      double sum = 0;
-      int n = 0;
-      for (int j = 2; j <= 4; ++j) {
-        const int q = i + towards * dir * j;
-        if (q >= 0 && q < width) sum += row[q], ++n;
+      if (std::abs(i - xm) < 0.25 * (hi - lo)) {
+        inside.push_back(smooth[i]);
+        row_inside.push_back(row[i]);
       }
-      return n ? sum / (n * rows) : -1e9;
-    };
-    for (int i = 1; i < width - 1; ++i) {
-      if (std::abs(i - x_pred) > window) continue;
-      // The step must part background-like brightness outside from something else inside.
-      const double out = std::abs(side_luma(i, 1) - bg_luma);
-      const double in = std::abs(side_luma(i, -1) - bg_luma);
-      if (!(out < in && out < 0.5 * o.min_brightness_contrast && in >= o.min_brightness_contrast))
-        continue;
-      const double g = std::abs(row[i + 1] - row[i - 1]);
-      if (g > best_g) best_g = g, best = i;
+      if (dir * (i - outer) >= 0) continue;  // the next nearer stem
+      if (dir * (i - x_pred) > 3) {
+        outside.push_back(smooth[i]);
+        row_beyond.push_back(row[i]);
+      }
     }
-    if (best < 2 || best > width - 3 || best_g < 0.5 * o.min_brightness_contrast * rows) {
-      return false;
-    }
-    const double sign = row[best + 1] >= row[best - 1] ? 1.0 : -1.0;
-    const double gm = sign * (row[best] - row[best - 2]), gp = sign * (row[best + 2] - row[best]);
-    const double den = gm - 2 * best_g + gp;
-    const double off = den < 0 ? 0.5 * (gm - gp) / den : 0.0;
-    *x_edge = x_begin + best + std::clamp(off, -0.5, 0.5);
-    return true;
-  };
-  bool by_brightness[2] = {false, false};
-  auto scan = [&](int dir, const std::vector<double>& outside, double* x_edge) {
-    if (outside.size() < 3) return false;
+    if (outside.size() < 3 || inside.empty()) return false;
+    const double stem = Median(inside);
     const double bg = Median(outside);
+    bool found = false;
+    double x = 0;
     if (bg - stem < o.min_contrast) {
-      by_brightness[dir > 0] = true;
-      return brightness_edge(dir, dir < 0 ? xl : xr, x_edge);
+      // What lies behind disagrees too little (plain sky, a smooth far background): the
+      // silhouette is the strongest brightness step near the predicted edge. Either sign: a
+      // sunlit side can be brighter than the background while the stem's middle is darker.
+      found = BrightnessEdge(o, row, rows, Median(row_inside) / rows, Median(row_beyond) / rows,
+                             dir, x_pred, std::max(3.0, 0.2 * (xr - xl)), &x);
+      if (found) x += x_begin;
+    } else {
+      const int run = std::clamp(static_cast<int>(0.05 * (xr - xl)), 3, 10);
+      found = FirstSustainedCrossing(smooth, static_cast<int>(std::lround(xm)), dir,
+                                     0.5 * (stem + bg), run, &x);
+      if (found) {
+        x += x_begin;
+        if (o.refine_on_brightness) x = refine(x);
+      }
     }
-    const double tau = 0.5 * (stem + bg);
-    const int run = std::clamp(static_cast<int>(0.05 * (xr - xl)), 3, 10);
-    double x;
-    if (!FirstSustainedCrossing(smooth, static_cast<int>(std::lround(xm)), dir, tau, run, &x)) {
-      return false;
-    }
-    *x_edge = x_begin + x;
+    // An edge at the next nearer stem is that stem's.
+    if (!found || dir * (window.outer_end[side] - x) < o.search_px / 4) return false;
+    *x_edge = x;
     return true;
   };
-  edges.left = scan(-1, out_left, &edges.x_left);
-  edges.right = scan(1, out_right, &edges.x_right);
-  if (o.refine_on_brightness) {
-    if (edges.left && !by_brightness[0]) edges.x_left = refine(edges.x_left);
-    if (edges.right && !by_brightness[1]) edges.x_right = refine(edges.x_right);
-  }
+  if (!window.hidden[0]) edges.left = scan(-1, &edges.x_left);
+  if (!window.hidden[1]) edges.right = scan(1, &edges.x_right);
   edges.y = y0;
   return edges;
 }
@@ -339,29 +360,72 @@ bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, dou
 
 namespace {
 
-// Which silhouettes (image left, right) of a stem at distance d along u from camera centre cc lie
-// within the edge search of a nearer stem's silhouette: there the edge found may be the
-// occluder's.
-std::array<bool, 2> HiddenSides(const TangentOptions& o, const TangentViews& v,
-                                const Eigen::Vector2d& cc, const Eigen::Vector2d& u, double d,
-                                double r, double alpha) {
-  std::array<bool, 2> hidden = {false, false};
-  if (!v.occluders) return hidden;
-  const double bearing = std::atan2(u.y(), u.x());
-  const double margin = o.search_px / v.camera->fx + o.search_share * alpha;
+// The nearer stems (x, y, radius) in front of a stem at distance d along u from the camera centre
+// cc: their silhouettes may cover its own or stand in its edge search.
+std::vector<Eigen::Vector3d> FrontOccluders(const TangentOptions& o, const TangentViews& v,
+                                            const Eigen::Vector2d& cc, const Eigen::Vector2d& u,
+                                            double d, double r) {
+  std::vector<Eigen::Vector3d> front;
+  if (!v.occluders) return front;
   for (const Eigen::Vector3d& q : *v.occluders) {
     const Eigen::Vector2d to_q = q.head<2>() - cc;
     const double dq = to_q.norm();
     if (dq <= q.z() || dq + q.z() >= d - r) continue;  // not in front
     // The stem itself (its start, before the fit moved it), or one merged with it.
     if ((to_q - d * u).norm() < q.z() + r + o.occluder_min_gap_m) continue;
-    const double aq = std::asin(std::min(1.0, q.z() / dq));
-    const double off = std::remainder(std::atan2(to_q.y(), to_q.x()) - bearing, 2 * M_PI);
-    // Image left is counter-clockwise of the line of sight (z up).
-    if (std::abs(alpha - off) < aq + margin) hidden[0] = true;
-    if (std::abs(-alpha - off) < aq + margin) hidden[1] = true;
+    // Beside the line of sight by more than a right angle: out of the picture.
+    if (to_q.dot(u) <= 0) continue;
+    front.push_back(q);
   }
-  return hidden;
+  return front;
+}
+
+// Image columns (ascending) of the silhouettes of the vertical circle (centre, r) at height z
+// seen from a camera at cc; false when a silhouette lies behind the camera.
+bool SilhouetteColumns(const PinholeCamera& cam, const Rigid3d& cam_from_world,
+                       const Eigen::Vector2d& cc, const Eigen::Vector2d& centre, double r, double z,
+                       std::array<double, 2>* xs) {
+  const Eigen::Vector2d to = centre - cc;
+  const double d = to.norm();
+  if (d <= r) return false;
+  const double alpha = std::asin(r / d);
+  for (int s = 0; s < 2; ++s) {
+    const double a = (s == 0 ? 1 : -1) * (M_PI / 2 - alpha);
+    const Eigen::Vector2d tp = centre + r * (Eigen::Rotation2Dd(a) * (-to / d));
+    const Eigen::Vector3d p = cam_from_world * Eigen::Vector3d(tp.x(), tp.y(), z);
+    if (p.z() < 0.1) return false;
+    (*xs)[s] = cam.ImageFromCam(p).x();
+  }
+  if ((*xs)[0] > (*xs)[1]) std::swap((*xs)[0], (*xs)[1]);
+  return true;
+}
+
+// The edge search a stem predicted at columns [xl, xr] has beside nearer stems at the given
+// columns: a side whose edge one covers, or with less than `guard` px of the stem or of what lies
+// behind it showing there, is hidden; otherwise the search stops at them.
+EdgeWindow WindowBesideOccluders(const std::vector<std::array<double, 2>>& occluder_cols, double xl,
+                                 double xr, double guard) {
+  EdgeWindow w;
+  w.inner_end = {xr, xl};
+  for (const auto& [ol, orr] : occluder_cols) {
+    if (ol < xl + guard && orr > xl - guard) {
+      w.hidden[0] = true;
+    } else if (orr <= xl - guard) {
+      w.outer_end[0] = std::max(w.outer_end[0], orr);
+    } else {
+      w.inner_end[0] = std::min(w.inner_end[0], ol);
+    }
+    if (ol < xr + guard && orr > xr - guard) {
+      w.hidden[1] = true;
+    } else if (ol >= xr + guard) {
+      w.outer_end[1] = std::min(w.outer_end[1], ol);
+    } else {
+      w.inner_end[1] = std::max(w.inner_end[1], orr);
+    }
+  }
+  if (w.inner_end[0] - xl < 3 * guard || xl - w.outer_end[0] < 3 * guard) w.hidden[0] = true;
+  if (xr - w.inner_end[1] < 3 * guard || w.outer_end[1] - xr < 3 * guard) w.hidden[1] = true;
+  return w;
 }
 
 TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
@@ -388,7 +452,6 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
       if (p_cam.z() < 0.5) continue;
       const Eigen::Vector2d p_img = cam.ImageFromCam(p_cam);
       if (p_img.x() < 0.08 * cam.width || p_img.x() > 0.92 * cam.width) continue;
-      const double alpha = std::asin(std::min(1.0, r / d));
       const Eigen::Vector2d u = to_stem / d;
       // Bands of rows, apart by their own height, within band_half_height_m of breast height.
       const double px_per_m = cam.fx / p_cam.z();
@@ -396,24 +459,29 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
       const int bands = std::max(0, static_cast<int>(o.band_half_height_m / band_step_m));
       std::vector<double> edge_y[2], edge_x[2];
       ++tried;
+      const std::vector<Eigen::Vector3d> front = FrontOccluders(o, v, cc, u, d, r);
+      std::array<bool, 2> hidden = {false, false};  // at breast height
       for (int j = -bands; j <= bands; ++j) {
         const double z = breast_z + j * band_step_m;
-        // Predicted tangent points at this height, left and right as seen from the camera.
-        double xs[2];
-        for (int s = 0; s < 2; ++s) {
-          const double a = (s == 0 ? 1 : -1) * (M_PI / 2 - alpha);
-          const Eigen::Vector2d dir = Eigen::Rotation2Dd(a) * (-u);
-          const Eigen::Vector2d tp = c + r * dir;
-          xs[s] = cam.ImageFromCam(cam_from_world * Eigen::Vector3d(tp.x(), tp.y(), z)).x();
+        // Predicted silhouettes at this height, and the nearer stems' beside them.
+        std::array<double, 2> xs;
+        if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, z, &xs)) continue;
+        std::vector<std::array<double, 2>> occluder_cols;
+        for (const Eigen::Vector3d& q : front) {
+          std::array<double, 2> qs;
+          if (SilhouetteColumns(cam, cam_from_world, cc, q.head<2>(), q.z(), z, &qs)) {
+            occluder_cols.push_back(qs);
+          }
         }
+        const EdgeWindow window = WindowBesideOccluders(
+            occluder_cols, xs[0], xs[1], std::max(0.25 * o.search_px, 0.1 * (xs[1] - xs[0])));
+        if (j == 0) hidden = window.hidden;
         const double y = cam.ImageFromCam(cam_from_world * Eigen::Vector3d(c.x(), c.y(), z)).y();
-        const Edges e = FindEdges(o, v, static_cast<int>(k), c, r, z, std::min(xs[0], xs[1]),
-                                  std::max(xs[0], xs[1]), y);
+        const Edges e = FindEdges(o, v, static_cast<int>(k), c, r, z, xs[0], xs[1], y, window);
         if (e.left) edge_y[0].push_back(y), edge_x[0].push_back(e.x_left);
         if (e.right) edge_y[1].push_back(y), edge_x[1].push_back(e.x_right);
       }
       const int min_points = std::max(1, (2 * bands + 1 + 1) / 2);
-      const std::array<bool, 2> hidden = HiddenSides(o, v, cc, u, d, r, alpha);
       int used = 0;
       for (int s = 0; s < 2; ++s) {
         double x;

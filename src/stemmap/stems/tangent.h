@@ -69,7 +69,8 @@ struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
   const std::vector<StampedPose>* keyframes = nullptr;  // plot frame
   const std::vector<cv::Mat>* gray = nullptr;           // CV_8U per keyframe (empty: missing)
-  // Other stems (x, y, radius; plot frame): a silhouette next to a nearer one's is not used.
+  // Other stems (x, y, radius; plot frame): the edge search stops at a nearer one's silhouette,
+  // and a side it covers, or leaves too little of to measure, is not used.
   const std::vector<Eigen::Vector3d>* occluders = nullptr;
 };
 

@@ -264,6 +264,28 @@ TEST(Tangent, LeavesOutSidesBesideANearerStem) {
   EXPECT_LT(fit.hidden_sides, 2 * fit.tried_views);
 }
 
+// A stem straight behind a nearer one: from one end of the arc only its left side shows beside
+// the nearer stem, from the other only its right. The search stops at the nearer stem's
+// silhouette, so the sides that show still measure it.
+TEST(Tangent, FitsAStemStraightBehindANearerOne) {
+  const Eigen::Vector2d centre(8.0, 0.2);
+  const double radius = 0.2;
+  const std::vector<Eigen::Vector3d> stems = {{centre.x(), centre.y(), radius}, {4.0, 0.1, 0.15}};
+  const RenderedStem scene = RenderStems(stems, true);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray, &stems};
+  const TangentFit fit = FitTangentRays(TangentOptions().ForImageScale(640.0 / 960.0), views,
+                                        centre * (1.0 + 0.2 / centre.norm()), 0.12, 1.37);
+  ASSERT_TRUE(fit.ok);
+  // A pixel is 17 mm at the stem here. The depth comes from the arm's 1-m baseline alone (the
+  // start, 0.2 m too far, barely holds it): a pixel's error on one side moves it 0.13 m.
+  EXPECT_NEAR(fit.radius_m, radius, 0.012);
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre.y(), centre.x()).normalized();
+  EXPECT_LT(std::abs(across.dot(fit.centre - centre)), 0.03);
+  EXPECT_LT((fit.centre - centre).norm(), 0.35);
+  EXPECT_GT(fit.hidden_sides, 0);
+  EXPECT_LT(2 * fit.two_sided_views, fit.tried_views);
+}
+
 // The cloud saw only one half of the stem (a nearer one hid the rest from the stereo pairs): its
 // width is half the stem's and its centre off to one side. The wide start finds both silhouettes.
 TEST(Tangent, FitsAStemStartedFromHalfItsWidth) {
