@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 #include <tuple>
@@ -34,6 +35,10 @@ void ProcessOptions::Check() const {
   }
   if (!(min_bark_gap_m >= 0 && min_bark_gap_m < 1)) {
     throw InputError("the smallest gap between two stems' bark must lie in [0, 1) m");
+  }
+  if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
+    throw InputError(
+        "the share of a part's width below which its cores are tried must lie in [0, 1]");
   }
   if (!(min_core_share >= 0 && min_core_share <= 1)) {
     throw InputError("the share of a part's width a core must reach must lie in [0, 1]");
@@ -214,6 +219,57 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   return SilhouetteVerdict::kKeepCloud;
 }
 
+PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
+                        const std::function<RefinedStem(stems::Stem)>& refine,
+                        std::vector<stems::Stem>* kept) {
+  PartOutcome out;
+  std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
+  const double part_dbh_m = 2 * CloudRadius(part);
+  auto [verdict, s, clean] = refine(std::move(part));
+  // A fit far narrower than a smeared part with several cores may be one of stems standing
+  // one behind another: the cores decide, when two or more of them fit on their own.
+  const bool narrow_in_wide = verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
+                              s.dbh_tangent_m < o.narrow_fit_share * part_dbh_m;
+  if (verdict == SilhouetteVerdict::kUse && !narrow_in_wide) {
+    out.fitted = 1;
+    kept->push_back(std::move(s));
+    return out;
+  }
+  // No silhouette fits the part as a whole: it may be stems one behind another, or a stem and
+  // a shrub or sapling beside it. Each dense core is a stem when its own silhouettes fit it
+  // cleanly, clear of the stems kept so far; they replace the part. A part kept on its cloud
+  // is one stem, maybe widened by a shrub: a core far narrower than it is a piece of its bark.
+  const size_t before = kept->size();
+  const double min_core_dbh_m =
+      verdict == SilhouetteVerdict::kKeepCloud ? o.min_core_share * s.dbh_m : 0.0;
+  for (stems::Stem& core : cores) {
+    auto [core_verdict, c, core_clean] = refine(std::move(core));
+    if (core_verdict != SilhouetteVerdict::kUse || !core_clean || c.dbh_m < min_core_dbh_m) {
+      continue;
+    }
+    const bool overlaps = std::ranges::any_of(*kept, [&](const stems::Stem& k) {
+      return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
+    });
+    if (!overlaps) kept->push_back(std::move(c));
+  }
+  const int from_cores = static_cast<int>(kept->size() - before);
+  if (narrow_in_wide && from_cores < 2) {
+    // Fewer than two: the whole part's fit stands.
+    kept->resize(before);
+    out.fitted = 1;
+    kept->push_back(std::move(s));
+    return out;
+  }
+  out.fitted = out.from_cores = from_cores;
+  if (from_cores > 0) return out;
+  if (verdict == SilhouetteVerdict::kKeepCloud) {
+    kept->push_back(std::move(s));
+  } else {
+    out.dropped = 1;
+  }
+  return out;
+}
+
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
                            std::vector<stems::Stem>* stems) {
@@ -254,7 +310,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     // A core stands alone only on clean silhouettes: both sides in a quarter of its views, on
     // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges).
     const bool clean = f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m;
-    if (verdict != SilhouetteVerdict::kUse) return std::tuple{verdict, std::move(s), clean};
+    if (verdict != SilhouetteVerdict::kUse) return RefinedStem{verdict, std::move(s), clean};
     // The silhouettes' views replace the cloud's count.
     std::erase(s.flags, std::string("few_views"));
     if (f.views < 4) s.flags.push_back("few_views");
@@ -274,50 +330,21 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }
-    return std::tuple{verdict, std::move(s), clean};
+    return RefinedStem{verdict, std::move(s), clean};
   };
-  int fitted = 0, dropped = 0, from_cores = 0;
+  PartOutcome total;
   std::vector<stems::Stem> kept;
   for (stems::Stem& part : *stems) {
-    std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
-    auto [verdict, s, clean] = refine(std::move(part));
-    if (verdict == SilhouetteVerdict::kUse) {
-      ++fitted;
-      kept.push_back(std::move(s));
-      continue;
-    }
-    // No silhouette fits the part as a whole: it may be stems one behind another, or a stem and
-    // a shrub or sapling beside it. Each dense core is a stem when its own silhouettes fit it
-    // cleanly, clear of the stems kept so far; they replace the part. A part kept on its cloud
-    // is one stem, maybe widened by a shrub: a core far narrower than it is a piece of its bark.
-    const size_t before = kept.size();
-    const double min_core_dbh_m =
-        verdict == SilhouetteVerdict::kKeepCloud ? o.min_core_share * s.dbh_m : 0.0;
-    for (stems::Stem& core : cores) {
-      auto [core_verdict, c, core_clean] = refine(std::move(core));
-      if (core_verdict != SilhouetteVerdict::kUse || !core_clean || c.dbh_m < min_core_dbh_m) {
-        continue;
-      }
-      const bool overlaps = std::ranges::any_of(kept, [&](const stems::Stem& k) {
-        return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
-      });
-      if (overlaps) continue;
-      ++fitted;
-      ++from_cores;
-      kept.push_back(std::move(c));
-    }
-    if (kept.size() > before) continue;
-    if (verdict == SilhouetteVerdict::kKeepCloud) {
-      kept.push_back(std::move(s));
-    } else {
-      ++dropped;
-    }
+    const PartOutcome p = ResolvePart(o, std::move(part), refine, &kept);
+    total.fitted += p.fitted;
+    total.from_cores += p.from_cores;
+    total.dropped += p.dropped;
   }
   const int twice = DropStemsFittedTwice(o.min_bark_gap_m, &kept);
   spdlog::info(
       "stems: tangent rays fitted {} of {} stems ({} from the cores of parts); {} parts "
       "without silhouettes dropped, {} fitted onto another stem",
-      fitted, stems->size(), from_cores, dropped, twice);
+      total.fitted, stems->size(), total.from_cores, total.dropped, twice);
   *stems = std::move(kept);
 }
 
@@ -425,6 +452,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
        {"one_sided_min_cloud_radius_m", o.one_sided_min_cloud_radius_m},
        {"min_core_share", o.min_core_share},
+       {"narrow_fit_share", o.narrow_fit_share},
        {"min_bark_gap_m", o.min_bark_gap_m},
        {"max_lean_deg", o.stems.max_lean_deg},
        {"confirm_lean_deg", o.stems.confirm_lean_deg},

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -35,6 +36,9 @@ struct ProcessOptions {
   // the part is kept on its cloud (one stem, perhaps widened by a shrub), only by cores at least
   // this share of its width (a narrower one is a piece of the stem's bark).
   double min_core_share = 0.6;
+  // A smeared part whose silhouettes fit a stem under this share of its width may be stems one
+  // behind another: its cores replace it when two or more of them fit cleanly on their own.
+  double narrow_fit_share = 0.6;
   // Two listed stems whose bark comes closer than this at breast height are one stem fitted
   // twice (a fit that slid along its line of sight onto a nearer stem's silhouette): the one
   // whose fit moved farther from its points is dropped.
@@ -86,6 +90,24 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
 // Drops the stems whose bark comes within `min_bark_gap_m` of another's (ProcessOptions), the
 // one whose fit moved farther from its points (Stem::fit_shift_m) first. Returns how many.
 int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems);
+
+// A stem as its silhouettes judged it; `clean`: both sides in a quarter of its views, on one
+// circle to a couple of pixels.
+struct RefinedStem {
+  SilhouetteVerdict verdict = SilhouetteVerdict::kDrop;
+  stems::Stem stem;
+  bool clean = false;
+};
+struct PartOutcome {
+  int fitted = 0;      // stems placed by their silhouettes
+  int from_cores = 0;  // of which the part's dense cores (Stem::alternatives)
+  int dropped = 0;     // parts that are no stem
+};
+// What one part of the cloud becomes, appended to `kept`: the stem its silhouettes fit, the stems
+// its cores make, the stem of its cloud, or nothing. `refine` judges one stem by its silhouettes.
+PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
+                        const std::function<RefinedStem(stems::Stem)>& refine,
+                        std::vector<stems::Stem>* kept);
 
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
 // method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "stemmap/core/error.h"
 
 namespace stemmap::pipeline {
@@ -49,6 +51,67 @@ TEST(DropStemsFittedTwice, OfTwoEquallyMovedStemsOneStays) {
   std::vector<stems::Stem> stems = {Fitted(5.0, 0.0, 0.30, 0.0), Fitted(5.0, 0.30, 0.30, 0.0)};
   EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
   EXPECT_EQ(stems.size(), 1u);
+}
+
+// Three stems nearly in line from the centre, which depth noise joined into one 43-cm part with
+// two dense cores; the part's silhouettes fit a 22.6-cm stem between them. `fitting` says which
+// cores fit cleanly on their own.
+struct InLine {
+  stems::Stem part;
+  std::vector<Eigen::Vector2d> fitting;
+  int refined = 0;
+  InLine() {
+    part.centre_xy = {8.8, -0.3};
+    part.dbh_slice_m = 0.43;
+    part.alternatives = {Fitted(8.2, -0.1, 0.17, 0.0), Fitted(9.1, -0.5, 0.13, 0.0)};
+  }
+  RefinedStem Refine(stems::Stem s) {
+    ++refined;
+    const bool is_part = (s.centre_xy - part.centre_xy).norm() < 1e-9;
+    const bool fits = is_part || std::ranges::any_of(fitting, [&](const Eigen::Vector2d& c) {
+                        return (c - s.centre_xy).norm() < 1e-9;
+                      });
+    if (is_part) s.dbh_m = s.dbh_tangent_m = part_fit_dbh_m;
+    return {fits ? SilhouetteVerdict::kUse : SilhouetteVerdict::kDrop, std::move(s), fits};
+  }
+  double part_fit_dbh_m = 0.226;
+};
+
+TEST(ResolvePart, AFitFarNarrowerThanASmearedPartGivesWayToItsCores) {
+  InLine c;
+  c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
+  std::vector<stems::Stem> kept;
+  const PartOutcome out = ResolvePart(
+      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.17);
+  EXPECT_DOUBLE_EQ(kept[1].dbh_m, 0.13);
+  EXPECT_EQ(out.fitted, 2);
+  EXPECT_EQ(out.from_cores, 2);
+}
+
+TEST(ResolvePart, OneCoreAloneDoesNotReplaceThePartsFit) {
+  InLine c;
+  c.fitting = {{8.2, -0.1}};
+  std::vector<stems::Stem> kept;
+  const PartOutcome out = ResolvePart(
+      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.226);
+  EXPECT_EQ(out.fitted, 1);
+  EXPECT_EQ(out.from_cores, 0);
+}
+
+TEST(ResolvePart, AFitNearThePartsWidthKeepsThePartWithoutTryingItsCores) {
+  InLine c;
+  c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
+  c.part_fit_dbh_m = 0.40;
+  std::vector<stems::Stem> kept;
+  ResolvePart(
+      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.40);
+  EXPECT_EQ(c.refined, 1);
 }
 
 TEST(JudgeSilhouetteFit, UsesAFitThatAgreesWithTheCloud) {
