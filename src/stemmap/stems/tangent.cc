@@ -531,7 +531,11 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
       solved = SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms, nullptr,
                                   &prior);
     }
-    if (!solved) return fit;
+    if (!solved) {
+      spdlog::debug("tangent:   no circle fits ({} left, {} right rays; r {:.3f})", side_rays[0],
+                    side_rays[1], r_new);
+      return fit;
+    }
     spdlog::debug("tangent:   solved ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm", c_new.x(), c_new.y(),
                   r_new, 1000 * rms);
     if (implausible()) return fit;
