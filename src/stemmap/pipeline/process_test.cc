@@ -241,6 +241,9 @@ TEST(ProcessOptions, AOneSidedBoundBelowTheCloudIsRejected) {
   o = ProcessOptions();
   o.min_core_share = 1.5;
   EXPECT_THROW(o.Check(), InputError);
+  o = ProcessOptions();
+  o.narrow_fit_share = -0.1;
+  EXPECT_THROW(o.Check(), InputError);
 }
 
 // The widest tangent start supposes 2.2 times the cloud's width; a fit that grew a little
