@@ -270,6 +270,20 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
   return out;
 }
 
+void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
+                          std::vector<Eigen::Vector3d>* occluders) {
+  for (size_t k = 0; k < fitted.size(); ++k) {
+    const stems::Stem& s = fitted[k];
+    const Eigen::Vector3d circle(s.centre_xy.x(), s.centre_xy.y(),
+                                 0.5 * (s.dbh_tangent_m > 0 ? s.dbh_tangent_m : s.dbh_m));
+    if (k == 0) {
+      (*occluders)[part] = circle;
+    } else {
+      occluders->push_back(circle);
+    }
+  }
+}
+
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
                            std::vector<stems::Stem>* stems) {
@@ -334,8 +348,12 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
   };
   PartOutcome total;
   std::vector<stems::Stem> kept;
-  for (stems::Stem& part : *stems) {
-    const PartOutcome p = ResolvePart(o, std::move(part), refine, &kept);
+  // Nearest first (the detector's order): a farther stem's edge search then stops at the nearer
+  // stems' fitted silhouettes rather than at the cloud's rougher outlines.
+  for (size_t i = 0; i < stems->size(); ++i) {
+    const size_t before = kept.size();
+    const PartOutcome p = ResolvePart(o, std::move((*stems)[i]), refine, &kept);
+    PlaceFittedOccluders(std::span(kept).subspan(before), i, &occluders);
     total.fitted += p.fitted;
     total.from_cores += p.from_cores;
     total.dropped += p.dropped;

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -108,6 +109,12 @@ struct PartOutcome {
 PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
                         const std::function<RefinedStem(stems::Stem)>& refine,
                         std::vector<stems::Stem>* kept);
+
+// The stems that one part of the cloud became (`fitted`) replace that part's circle (x, y,
+// radius) among the occluders that farther stems' edge searches stop at; a part that became
+// nothing keeps its cloud circle.
+void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
+                          std::vector<Eigen::Vector3d>* occluders);
 
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
 // method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution

@@ -34,6 +34,25 @@ stems::Stem Fitted(double x, double y, double dbh_m, double shift_m) {
   return s;
 }
 
+TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
+  std::vector<Eigen::Vector3d> occluders = {{1, 0, 0.1}, {5, 0, 0.3}, {9, 0, 0.2}};
+  std::vector<stems::Stem> fitted(2);
+  fitted[0].centre_xy = {5.1, 0.2};
+  fitted[0].dbh_m = 0.5;          // the cloud's
+  fitted[0].dbh_tangent_m = 0.4;  // the silhouettes'
+  fitted[1].centre_xy = {5.4, -0.3};
+  fitted[1].dbh_m = 0.2;
+  PlaceFittedOccluders(fitted, 1, &occluders);
+  ASSERT_EQ(occluders.size(), 4u);
+  EXPECT_EQ(occluders[0], Eigen::Vector3d(1, 0, 0.1));
+  EXPECT_EQ(occluders[1], Eigen::Vector3d(5.1, 0.2, 0.2));
+  EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
+  EXPECT_EQ(occluders[3], Eigen::Vector3d(5.4, -0.3, 0.1));
+  // A part that became nothing keeps its cloud circle.
+  PlaceFittedOccluders({}, 2, &occluders);
+  EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
+}
+
 TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
   // A 27.8-cm stem, and a 17.8-cm fit that moved 0.47 m from its points to touch it; a third
   // stem 0.46 m from the first, and a far one that moved as much, stay.
