@@ -187,7 +187,7 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   // Both sides in most views, agreeing to a pixel, narrower than the points: the cloud took in
   // what stands beside the stem (a shrub, a sapling). A furrow does not stay tangent across views.
   const bool narrower_two_sided = two_sided && 2 * f.two_sided_views >= f.tried_views &&
-                                  f.radius_m < r0 && f.radius_m > 0.45 * r0;
+                                  f.radius_m < r0 && f.radius_m > o.tangent.narrow_min_share * r0;
   // A fit from one side that came out wider than the points rests on nothing that can check it
   // (an occluder's edge, the slack of a one-sided circle); a confirmed stem keeps the cloud's
   // width.
@@ -206,9 +206,9 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   // any other wider fit (a trunk just behind the stem can widen loose silhouettes).
   const bool smeared_width =
       f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0 && (f.radius_m <= r0 || two_sided);
-  const bool plausible =
-      f.ok && confirmed &&
-      (s.depth_smeared ? smeared_width : near_cloud || wider_two_sided || narrower_two_sided);
+  const bool plausible = f.ok && confirmed &&
+                         (s.depth_smeared ? smeared_width || narrower_two_sided
+                                          : near_cloud || wider_two_sided || narrower_two_sided);
   if (plausible) return SilhouetteVerdict::kUse;
   if (f.ok && confirmed && s.depth_smeared) return SilhouetteVerdict::kKeepCloud;
   // A smeared or weakly supported part is a stem only if silhouettes confirm it; when

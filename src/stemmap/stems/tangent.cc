@@ -571,13 +571,27 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z) {
   TangentFit fit = FitTangentRaysFrom(o, v, centre0, radius0, radius0, breast_z);
-  // Most views two-sided: the start was wide enough.
+  // Most views two-sided: the start was right.
   if (fit.ok && 2 * fit.two_sided_views >= fit.tried_views) return fit;
+  // A narrower start must find both sides in several views, tangent to one circle to about a
+  // pixel, and no narrower than a share of the cloud's width: inside a stem, bark and the border
+  // of sun and shade give loose pairs of edges too.
+  const double px_m = centre0.norm() / v.camera->fx;
+  for (double scale : o.narrow_start_scales) {
+    const TangentFit other = FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z);
+    const bool trusted = other.ok && other.two_sided_views >= 3 &&
+                         other.rms_m < o.narrow_max_rms_px * px_m &&
+                         other.radius_m > o.narrow_min_share * radius0;
+    // Clearly more two-sided views than the start's fit: a few pairs also come from a sapling.
+    if (trusted && (!fit.ok || 2 * other.two_sided_views >= 3 * fit.two_sided_views)) {
+      fit = other;
+    }
+  }
   for (double scale : o.wide_start_scales) {
-    const TangentFit wide = FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z);
-    if (wide.ok && (!fit.ok || wide.two_sided_views > fit.two_sided_views ||
-                    (wide.two_sided_views == fit.two_sided_views && wide.rays > fit.rays))) {
-      fit = wide;
+    const TangentFit other = FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z);
+    if (other.ok && (!fit.ok || other.two_sided_views > fit.two_sided_views ||
+                     (other.two_sided_views == fit.two_sided_views && other.rays > fit.rays))) {
+      fit = other;
     }
   }
   return fit;

@@ -43,6 +43,11 @@ struct TangentOptions {
   // that a nearer one hides, and its width is too small to find the far silhouette); the start
   // whose fit has the most two-sided views wins. Empty: only the given radius.
   std::vector<double> wide_start_scales = {1.6, 2.2};
+  // And from these, below 1: the cloud merged the stem with what stands close beside it (a
+  // sapling, a shrub), and a start that wide takes their gaps for the stem's inside.
+  std::vector<double> narrow_start_scales = {0.5};
+  double narrow_max_rms_px = 1.2;  // ray rms (px at the stem) a narrower start's fit must keep
+  double narrow_min_share = 0.35;  // of radius0: the narrowest fit that can stand for the stem
   // The largest radius, as a multiple of radius0, that a fit from these starts may reach:
   // a little beyond the widest (a fit grows from its start), and 2.5 without wide starts.
   double WidestFitScale() const {
