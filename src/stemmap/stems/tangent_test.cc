@@ -303,6 +303,28 @@ TEST(Tangent, FitsAStemStartedFromHalfItsWidth) {
   EXPECT_GT(fit.two_sided_views, 10);
 }
 
+// A thin stem with a sapling close on either side: the cloud merged the three into one part
+// over twice the stem's width, and a search started from that width takes the gaps between them
+// for the stem's inside. The start from half of it finds the stem's own silhouettes.
+TEST(Tangent, FitsAThinStemTheCloudMergedWithSaplingsBesideIt) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.07;
+  const std::vector<Eigen::Vector3d> stems = {
+      {centre.x(), centre.y(), radius}, {6.1, 0.55, 0.025}, {5.9, 0.04, 0.025}};
+  const RenderedStem scene = RenderStems(stems, true);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  const TangentOptions o = TangentOptions().ForImageScale(640.0 / 960.0);
+  const TangentFit fit = FitTangentRays(o, views, centre, 0.18, 1.37);
+  ASSERT_TRUE(fit.ok);
+  EXPECT_NEAR(fit.radius_m, radius, 0.008);
+  EXPECT_LT((fit.centre - centre).norm(), 0.08);
+  // From the cloud's width alone the silhouettes are not the stem's.
+  TangentOptions wide_only = o;
+  wide_only.narrow_start_scales.clear();
+  const TangentFit wide = FitTangentRays(wide_only, views, centre, 0.18, 1.37);
+  EXPECT_FALSE(wide.ok && std::abs(wide.radius_m - radius) < 0.008);
+}
+
 // A nearer stem hid most of this one from the stereo pairs: the cloud's part is under half the
 // stem's width and its centre lies more than max_sideways_m to one side. The widest start
 // supposes that much of a shift and finds both silhouettes.
