@@ -140,7 +140,8 @@ TEST(JudgeSilhouetteFit, UsesAFitThatAgreesWithTheCloud) {
 
 TEST(JudgeSilhouetteFit, KeepsTheCloudWhenTheFitLockedOntoSomethingElse) {
   Case c;
-  c.fit.radius_m = 0.06;  // far narrower than the points: a furrow or a neighbour's edge
+  // Under narrow_min_share (0.35) of the points' width: a furrow or a neighbour's edge.
+  c.fit.radius_m = 0.045;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
 }
 
@@ -157,6 +158,11 @@ TEST(JudgeSilhouetteFit, NarrowerSilhouettesOnBothSidesInMostViewsOutrankTheClou
   Case c;
   c.fit.radius_m = 0.08;  // the cloud took in a shrub beside a 16-cm stem
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.radius_m = 0.06;  // saplings on both sides of a 12-cm stem: 0.4 of the points' width
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.stem.depth_smeared = true;  // also where the stereo points were smeared in depth
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.stem.depth_smeared = false;
   c.fit.tried_views = 8;  // both sides in only three of eight views: not enough to overrule it
   c.fit.two_sided_views = 3;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
