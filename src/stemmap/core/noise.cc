@@ -16,15 +16,6 @@ ValueNoise::ValueNoise(uint64_t seed) {
   }
 }
 
-double ValueNoise::Noise2PeriodicX(double x, double y, int period) const {
-  const int64_t fx = FloorInt(x), fy = FloorInt(y);
-  int ix = static_cast<int>(fx % period);
-  if (ix < 0) ix += period;
-  const int ix1 = ix + 1 == period ? 0 : ix + 1;
-  const int iy = static_cast<int>(fy & (kPeriod - 1));
-  return Interp2(ix, ix1, iy, Fade(x - static_cast<double>(fx)), Fade(y - static_cast<double>(fy)));
-}
-
 double ValueNoise::Fbm2(double x, double y, int octaves, double gain) const {
   double sum = 0.0, amp = 1.0, norm = 0.0;
   for (int o = 0; o < octaves; ++o) {

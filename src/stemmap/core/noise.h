@@ -18,7 +18,7 @@ class ValueNoise {
   inline double Noise2(double x, double y) const;
   inline double Noise3(double x, double y, double z) const;
   // Noise2 that repeats every `period` units in x (1 <= period <= kPeriod), for azimuths.
-  double Noise2PeriodicX(double x, double y, int period) const;
+  inline double Noise2PeriodicX(double x, double y, int period) const;
   // Fractal sums of `octaves` octaves, each twice the frequency and `gain` times the amplitude,
   // normalised to [-1, 1].
   double Fbm2(double x, double y, int octaves, double gain = 0.5) const;
@@ -67,6 +67,18 @@ double ValueNoise::Noise3(double x, double y, double z) const {
     c[k] = Lerp(a, b, ty);
   }
   return Lerp(c[0], c[1], tz);
+}
+
+double ValueNoise::Noise2PeriodicX(double x, double y, int period) const {
+  const int64_t fx = FloorInt(x), fy = FloorInt(y);
+  // A 32-bit remainder where the lattice index fits (always, in practice): a 64-bit division
+  // costs several times more, and this runs per bark sample.
+  int ix = fx >= -(int64_t{1} << 30) && fx < (int64_t{1} << 30) ? static_cast<int>(fx) % period
+                                                                : static_cast<int>(fx % period);
+  if (ix < 0) ix += period;
+  const int ix1 = ix + 1 == period ? 0 : ix + 1;
+  const int iy = static_cast<int>(fy & (kPeriod - 1));
+  return Interp2(ix, ix1, iy, Fade(x - static_cast<double>(fx)), Fade(y - static_cast<double>(fy)));
 }
 
 }  // namespace stemmap

@@ -56,6 +56,8 @@ Stem::Stem(const StemParams& p) : p_(p), noise_(p.seed) {
       p.furrow_depth_m * 1.3 * (n_furrows_ + 30) / (kFurrowWidth * kTwoPi);
   const double r_min = std::max(0.01, MeanRadius(std::min(p.height_m, 4.0)));
   march_lipschitz_ = 1.3 + relief_slope_per_rad / r_min;
+  // The mean radius shrinks upward when the stem tapers, so its largest value is at the bottom.
+  envelope_bound_m_ = p.taper_m_per_m >= 0 ? MeanRadius(-kBelowGroundM) : -1.0;
 }
 
 double Stem::MeanRadius(double s) const {
@@ -106,17 +108,29 @@ double Stem::EllipseFactor(double c, double sn) const {
 }
 
 double Stem::SurfaceRadius(double phi, double s) const {
-  double u = phi / kTwoPi;
-  u -= std::floor(u);
-  return EllipseFactor(std::cos(phi), std::sin(phi)) * MeanRadius(s) + Relief(u, s);
+  return SurfaceRadius(phi, s, MeanRadius(s));
 }
 
-double Stem::Field(const Eigen::Vector3d& q) const {
+double Stem::SurfaceRadius(double phi, double s, double mean_radius) const {
+  double u = phi / kTwoPi;
+  u -= std::floor(u);
+  return EllipseFactor(std::cos(phi), std::sin(phi)) * mean_radius + Relief(u, s);
+}
+
+double Stem::Field(const Eigen::Vector3d& q, FieldParts* parts) const {
+  if (parts) parts->valid = false;
   if (q.z() < -kBelowGroundM || q.z() > p_.height_m) return 1.0;
   const double rho = std::sqrt(q.x() * q.x() + q.y() * q.y());  // not hypot: hot, and no overflow
   if (rho < 1e-9) return -MeanRadius(q.z());
   const double e = EllipseFactor(q.x() / rho, q.y() / rho);
-  return rho - (e * MeanRadius(q.z()) + Relief(TurnFraction(q.x(), q.y()), q.z()));
+  const double phi = std::atan2(q.y(), q.x());
+  double u = phi / kTwoPi;  // as TurnFraction
+  if (u < 0) u += 1.0;
+  const double mean_radius = MeanRadius(q.z());
+  const double relief = Relief(u, q.z());
+  const double surface = e * mean_radius + relief;
+  if (parts) *parts = {true, rho, phi, u, mean_radius, surface, relief};
+  return rho - surface;
 }
 
 std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
@@ -133,6 +147,14 @@ std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
   if (qa < 1e-14) return std::nullopt;
   const double qb = ox * dx + oy * dy;
   const double qc0 = ox * ox + oy * oy;
+  if (envelope_bound_m_ > 0 && std::isfinite(t_max)) {
+    // Nothing on the ray comes within tolerance of the surface if its closest approach to the
+    // axis (scaled frame: real distances are at least b_unit_ times these) stays out of reach of
+    // the widest envelope. Saves the radius iterations below for the many rays that pass by.
+    const double reach =
+        (a_unit_ * envelope_bound_m_ + std::max(3e-5, tol_per_m * t_max)) / b_unit_ + 1e-6;
+    if (qc0 - qb * qb / qa > reach * reach) return std::nullopt;
+  }
   double t_closest = -qb / qa;
   double r = MeanRadius(os.z() + t_closest * ds.z());
   double t_in = 0.0, t_out = 0.0;
@@ -152,10 +174,11 @@ std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
   double t = std::max(t_in - 0.002, t_min);
   const double t_end = std::min(t_out + 0.002, t_max);
   if (t >= t_end) return std::nullopt;
-  double f = Field(os + t * ds);
+  FieldParts parts;  // of the field at t
+  double f = Field(os + t * ds, &parts);
   for (int back = 0; f < 0 && back < 4 && t > t_min; ++back) {
     t = std::max(t - 0.03, t_min);
-    f = Field(os + t * ds);
+    f = Field(os + t * ds, &parts);
   }
   double t_prev = t;
   bool found = false;
@@ -163,9 +186,15 @@ std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
     if (f < 0.0) {
       // Overshot: bisect between the last outside point and here.
       double lo = t_prev, hi = t;
+      FieldParts mid_parts;
       for (int b = 0; b < 12; ++b) {
         const double mid = 0.5 * (lo + hi);
-        (Field(os + mid * ds) < 0.0 ? hi : lo) = mid;
+        if (Field(os + mid * ds, &mid_parts) < 0.0) {
+          hi = mid;
+          parts = mid_parts;
+        } else {
+          lo = mid;
+        }
       }
       t = hi;
       found = true;
@@ -178,20 +207,31 @@ std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
     t_prev = t;
     // Over-relaxed: twice the Lipschitz-safe step; an overshoot is caught by the sign test above.
     t += std::max(2.0 * f / march_lipschitz_, 2e-5);
-    f = Field(os + t * ds);
+    f = Field(os + t * ds, &parts);
   }
   if (!found || t > t_end || t < t_min) return std::nullopt;
 
   // Normal from the field's gradient in cylindrical coordinates, F = rho - S(phi, s):
   // grad F = e_rho - (dS/dphi / rho) e_phi - (dS/ds) e_z, with S differenced along phi and s.
   const Eigen::Vector3d q = os + t * ds;
-  const double rho = std::max(std::sqrt(q.x() * q.x() + q.y() * q.y()), 1e-9);
-  const double phi = std::atan2(q.y(), q.x());
+  if (!parts.valid) {
+    parts.valid = true;
+    parts.rho = std::sqrt(q.x() * q.x() + q.y() * q.y());
+    parts.phi = std::atan2(q.y(), q.x());
+    parts.u = TurnFraction(q.x(), q.y());
+    parts.mean_radius = MeanRadius(q.z());
+    parts.relief = Relief(parts.u, q.z());
+    const double rho = std::max(parts.rho, 1e-9);
+    parts.surface_radius =
+        EllipseFactor(q.x() / rho, q.y() / rho) * parts.mean_radius + parts.relief;
+  }
+  const double rho = std::max(parts.rho, 1e-9);
+  const double phi = parts.phi;
   const double h = 4e-4;
-  const double u = TurnFraction(q.x(), q.y());
-  const double relief = Relief(u, q.z());
-  const double s0 = EllipseFactor(q.x() / rho, q.y() / rho) * MeanRadius(q.z()) + relief;
-  const double dS_dphi = (SurfaceRadius(phi + h / rho, q.z()) - s0) * rho / h;
+  const double u = parts.u;
+  const double relief = parts.relief;
+  const double s0 = parts.surface_radius;
+  const double dS_dphi = (SurfaceRadius(phi + h / rho, q.z(), parts.mean_radius) - s0) * rho / h;
   const double dS_ds = (SurfaceRadius(phi, q.z() + h) - s0) / h;
   const Eigen::Vector3d e_rho(q.x() / rho, q.y() / rho, 0.0), e_phi(-e_rho.y(), e_rho.x(), 0.0);
   const Eigen::Vector3d grad = e_rho - (dS_dphi / rho) * e_phi - dS_ds * Eigen::Vector3d::UnitZ();

@@ -75,7 +75,13 @@ class Stem {
   // Bark relief (<= 0) at turn fraction u = azimuth / 2π in [0, 1) and height s.
   double Relief(double u, double s) const;
   double EllipseFactor(double cos_phi, double sin_phi) const;
-  double Field(const Eigen::Vector3d& p_stem) const;                // signed: < 0 inside
+  // What Field() computes at a point, kept so that a hit's normal and albedo reuse it.
+  struct FieldParts {
+    bool valid = false;  // false where the field short-cuts (beyond the ends, on the axis)
+    double rho, phi, u, mean_radius, surface_radius, relief;
+  };
+  double Field(const Eigen::Vector3d& p_stem, FieldParts* parts = nullptr) const;  // < 0 inside
+  double SurfaceRadius(double phi, double s, double mean_radius) const;
   Eigen::Vector3f Albedo(double u, double s, double relief) const;  // relief = Relief(u, s)
   static double TurnFraction(double x, double y);
 
@@ -86,6 +92,7 @@ class Stem {
   double cos_ell_, sin_ell_;
   int n_furrows_;
   double march_lipschitz_;
+  double envelope_bound_m_;  // largest mean radius over the stem's length, or -1 if unknown
   ValueNoise noise_;
 };
 
