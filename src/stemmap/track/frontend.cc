@@ -108,8 +108,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
   o.Check();
   FrontendResult r;
   r.info = reader.info();
-  const double fps = r.info.fps > 0 ? r.info.fps : 30.0;
-  const int stride = std::max(1, static_cast<int>(std::lround(fps / o.track_fps)));
+  const int stride = FrameStride(r.info.fps, o.track_fps);
   const double step_rad = o.keyframe_step_deg * M_PI / 180.0;
   const cv::Size win(o.lk_window_px, o.lk_window_px);
   const cv::Size fine_win(o.lk_refine_window_px, o.lk_refine_window_px);
@@ -146,6 +145,9 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     r.frame_t_s.push_back(f->t_s);
     progress.Update(fi + 1);
     if (fi % stride != 0) continue;
+    if (!f->converted) {
+      throw ProcessingError(fmt::format("frame {} was not converted for tracking", fi));
+    }
     cv::cvtColor(f->bgr, gray, cv::COLOR_BGR2GRAY);
     if (r.working_size.empty()) r.working_size = gray.size();
     if (cv::mean(gray)[0] < o.dark_mean_luma) ++r.dark_frames;

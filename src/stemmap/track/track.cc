@@ -108,6 +108,9 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   vro.max_long_side_px = o.frontend.working_long_side_px;
   vro.full_gray = o.frontend.keep_keyframe_images;
   vro.prefetch_frames = 8;  // decoding overlaps tracking
+  vro.wanted = [track_fps = o.frontend.track_fps](const VideoInfo& info, int64_t index, double) {
+    return index % FrameStride(info.fps, track_fps) == 0;
+  };
   VideoReader reader(video, vro);
   r.camera = WorkingCamera(o, reader.info());
   spdlog::info("track: {}x{} {:.2f} fps {}, working {}x{}, hfov {:.1f}°", reader.info().width,

@@ -61,6 +61,14 @@ TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::p
   vro.max_long_side_px = std::max(r.camera.width, r.camera.height);
   vro.full_gray = full_gray;
   vro.prefetch_frames = 8;
+  // Only frames within half a frame interval of a keyframe time can be one of its images.
+  std::vector<double> keyframe_t_s;
+  for (const StampedPose& p : r.keyframes) keyframe_t_s.push_back(p.t_s);
+  vro.wanted = [keyframe_t_s](const VideoInfo& info, int64_t, double t_s) {
+    const double half_frame_s = 0.5 / (info.fps > 0 ? info.fps : 30.0);
+    const auto it = std::lower_bound(keyframe_t_s.begin(), keyframe_t_s.end(), t_s - half_frame_s);
+    return it != keyframe_t_s.end() && *it <= t_s + half_frame_s;
+  };
   VideoReader reader(video, vro);
   const VideoInfo& info = reader.info();
   if (info.width != r.camera.width || info.height != r.camera.height) {
@@ -77,6 +85,7 @@ TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::p
   size_t k = 0;  // first keyframe not yet behind the current frame
   while (std::optional<DecodedFrame> f = reader.Next()) {
     progress.Update(f->index + 1);
+    if (!f->converted) continue;
     while (k < r.keyframes.size() && r.keyframes[k].t_s < f->t_s - half_frame_s) ++k;
     for (size_t j = k; j < r.keyframes.size() && r.keyframes[j].t_s <= f->t_s + half_frame_s; ++j) {
       const double gap = std::abs(r.keyframes[j].t_s - f->t_s);

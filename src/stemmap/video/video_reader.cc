@@ -194,6 +194,11 @@ VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options
 
 VideoReader::~VideoReader() = default;
 
+int FrameStride(double fps, double wanted_fps) {
+  if (!(fps > 0)) fps = 30.0;
+  return std::max(1, static_cast<int>(std::lround(fps / wanted_fps)));
+}
+
 const VideoInfo& VideoReader::info() const { return impl_->info; }
 int VideoReader::corrupt_packets() const { return impl_->corrupt; }
 
@@ -241,8 +246,6 @@ std::optional<DecodedFrame> VideoReader::Impl::Decode() {
   while (!m.done) {
     int ret = avcodec_receive_frame(m.dec, m.frame);
     if (ret == 0) {
-      // Frames whose size changes mid-stream are rescaled to the first size.
-      const cv::Mat bgr = Convert(&m.sws, m.frame, m.out_w, m.out_h, AV_PIX_FMT_BGR24, CV_8UC3);
       const AVStream* stream = m.fmt->streams[m.stream_index];
       const int64_t pts = m.frame->best_effort_timestamp;
       double t_s = pts == AV_NOPTS_VALUE
@@ -251,15 +254,20 @@ std::optional<DecodedFrame> VideoReader::Impl::Decode() {
       if (std::isnan(m.first_t_s)) m.first_t_s = t_s;
       t_s -= m.first_t_s;
       DecodedFrame out;
-      if (m.options.full_gray) {
-        out.gray_full =
-            Upright(Convert(&m.sws_gray, m.frame, m.full_w, m.full_h, AV_PIX_FMT_GRAY8, CV_8U),
-                    m.info.rotation_deg);
-      }
-      av_frame_unref(m.frame);
       out.index = m.decoded++;
       out.t_s = t_s;
-      out.bgr = Upright(bgr, m.info.rotation_deg);
+      out.converted = !m.options.wanted || m.options.wanted(m.info, out.index, t_s);
+      if (out.converted) {
+        // Frames whose size changes mid-stream are rescaled to the first size.
+        out.bgr = Upright(Convert(&m.sws, m.frame, m.out_w, m.out_h, AV_PIX_FMT_BGR24, CV_8UC3),
+                          m.info.rotation_deg);
+        if (m.options.full_gray) {
+          out.gray_full =
+              Upright(Convert(&m.sws_gray, m.frame, m.full_w, m.full_h, AV_PIX_FMT_GRAY8, CV_8U),
+                      m.info.rotation_deg);
+        }
+      }
+      av_frame_unref(m.frame);
       return out;
     }
     if (ret == AVERROR_EOF) {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -21,10 +22,11 @@ struct VideoInfo {
 };
 
 struct DecodedFrame {
-  int64_t index = 0;  // 0-based order of decoding
-  double t_s = 0.0;   // presentation time from the stream, relative to the first frame
-  cv::Mat bgr;        // CV_8UC3, rotated upright, scaled to the requested size
-  cv::Mat gray_full;  // CV_8U, rotated upright, full resolution (VideoReaderOptions::full_gray)
+  int64_t index = 0;      // 0-based order of decoding
+  double t_s = 0.0;       // presentation time from the stream, relative to the first frame
+  cv::Mat bgr;            // CV_8UC3, rotated upright, scaled to the requested size
+  cv::Mat gray_full;      // CV_8U, rotated upright, full resolution (VideoReaderOptions::full_gray)
+  bool converted = true;  // false: VideoReaderOptions::wanted skipped it (no images)
 };
 
 struct VideoReaderOptions {
@@ -36,7 +38,14 @@ struct VideoReaderOptions {
   // Frames decoded ahead on a background thread while the caller works on earlier ones
   // (0 = decode on the caller's thread). Frames arrive in the same order either way.
   int prefetch_frames = 0;
+  // Which frames need images: the others are still decoded (the codec needs them) and returned
+  // with their index and time, but not converted, which costs as much as decoding at 1080p.
+  // Called on the decoding thread, so it must not touch state the caller changes. Empty: all.
+  std::function<bool(const VideoInfo& info, int64_t index, double t_s)> wanted;
 };
+
+// Every how many frames a video of `fps` is sampled to work at about `wanted_fps` (>= 1).
+int FrameStride(double fps, double wanted_fps);
 
 // Decodes a video file (any codec and container FFmpeg reads: H.264/HEVC in mp4/mov, ...) to BGR
 // frames in display orientation. Throws InputError when the file cannot be opened or holds no

@@ -108,6 +108,43 @@ TEST(Video, PrefetchingGivesTheSameFramesInTheSameOrder) {
   ASSERT_TRUE(abandoned.Next().has_value());
 }
 
+TEST(Video, UnwantedFramesComeWithTheirTimesButNoImages) {
+  const fs::path path = TestDir() / "wanted.mp4";
+  const VideoWriterOptions wo = ClipOptions();
+  VideoWriter writer(path, wo);
+  for (int i = 0; i < 12; ++i) writer.Write(TestFrame(wo.width, wo.height, i));
+  writer.Close();
+
+  VideoReaderOptions all_options;
+  all_options.full_gray = true;
+  VideoReader all(path, all_options);
+  VideoReaderOptions some_options = all_options;
+  some_options.prefetch_frames = 2;
+  some_options.wanted = [](const VideoInfo& info, int64_t index, double) {
+    return index % FrameStride(info.fps, 5.0) == 0;  // 10 fps sampled at 5: every second frame
+  };
+  VideoReader some(path, some_options);
+  int n = 0;
+  while (auto a = all.Next()) {
+    const auto b = some.Next();
+    ASSERT_TRUE(b.has_value()) << "frame " << n;
+    EXPECT_EQ(b->index, a->index);
+    EXPECT_DOUBLE_EQ(b->t_s, a->t_s);
+    EXPECT_EQ(b->converted, n % 2 == 0) << "frame " << n;
+    if (n % 2 == 0) {
+      EXPECT_EQ(cv::norm(a->bgr, b->bgr, cv::NORM_INF), 0.0) << "frame " << n;
+      EXPECT_EQ(cv::norm(a->gray_full, b->gray_full, cv::NORM_INF), 0.0) << "frame " << n;
+    } else {
+      EXPECT_TRUE(b->bgr.empty() && b->gray_full.empty()) << "frame " << n;
+    }
+    ++n;
+  }
+  EXPECT_EQ(n, 12);
+  EXPECT_EQ(FrameStride(30.0, 15.0), 2);
+  EXPECT_EQ(FrameStride(10.0, 15.0), 1) << "never below one";
+  EXPECT_EQ(FrameStride(0.0, 15.0), 2) << "an unknown rate counts as 30 fps";
+}
+
 TEST(Video, MissingAndCorruptFilesAreInputErrors) {
   EXPECT_THROW(VideoReader(TestDir() / "nope.mp4"), InputError);
   const fs::path junk = TestDir() / "junk.mp4";
