@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 
 namespace stemmap::stems {
@@ -190,6 +191,18 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   const int width = x_end - x_begin + 1;
   std::vector<double> diff(width, 0.0);
   std::vector<int> count(width, 0);
+  // Where each pixel's ray meets the stem's surface (or the axis plane), shared by both
+  // neighbours; NaN where the ray goes away from it.
+  std::vector<Eigen::Vector3d> on_stem(static_cast<size_t>(y_end - y_begin + 1) * width);
+  for (int y = y_begin; y <= y_end; ++y) {
+    for (int x = x_begin; x <= x_end; ++x) {
+      const Eigen::Vector3d ray = world_from_k.rotation * cam.CamRayFromImage({x, y});
+      const double t = depth_along(ray);
+      on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)] =
+          t <= 0 ? Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())
+                 : Eigen::Vector3d(ck + t * ray);
+    }
+  }
   for (int side : {-1, 1}) {
     int j = k + side;
     while (j + side >= 0 && j + side < static_cast<int>(kfs.size()) &&
@@ -202,10 +215,10 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
     const cv::Mat& img_j = (*v.gray)[j];
     for (int y = y_begin; y <= y_end; ++y) {
       for (int x = x_begin; x <= x_end; ++x) {
-        const Eigen::Vector3d ray = world_from_k.rotation * cam.CamRayFromImage({x, y});
-        const double t = depth_along(ray);
-        if (t <= 0) continue;
-        const Eigen::Vector3d p_j = j_from_world * (ck + t * ray);
+        const Eigen::Vector3d& p_w =
+            on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)];
+        if (std::isnan(p_w.x())) continue;
+        const Eigen::Vector3d p_j = j_from_world * p_w;
         if (p_j.z() <= 0.1) continue;
         const Eigen::Vector2d px = cam.ImageFromCam(p_j);
         const float vj = Bilinear(img_j, px.x(), px.y());
@@ -428,88 +441,124 @@ EdgeWindow WindowBesideOccluders(const std::vector<std::array<double, 2>>& occlu
   return w;
 }
 
+// What one keyframe's view gives a stem (centre c, radius r): a ray tangent to each silhouette
+// side it found at breast height.
+struct ViewRays {
+  bool tried = false;
+  int hidden_sides = 0;
+  std::array<bool, 2> found = {false, false};
+  std::array<Eigen::Vector2d, 2> normal;  // of each side's tangent ray, toward the stem
+  std::array<double, 2> x = {0, 0};       // the silhouette's column at breast height
+  double y = 0;                           // breast height's row
+  Eigen::Vector2d origin;                 // the camera centre
+  double heading = 0;                     // from the stem toward the camera
+  int used() const { return found[0] + found[1]; }
+};
+
+ViewRays MeasureView(const TangentOptions& o, const TangentViews& v, const Eigen::Vector2d& c,
+                     double r, double breast_z, size_t k) {
+  ViewRays out;
+  const PinholeCamera& cam = *v.camera;
+  if ((*v.gray)[k].empty()) return out;
+  const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
+  const Rigid3d cam_from_world = world_from_cam.Inverse();
+  const Eigen::Vector2d cc = world_from_cam.translation.head<2>();
+  const Eigen::Vector2d to_stem = c - cc;
+  const double d = to_stem.norm();
+  if (d < r + 0.3) return out;
+  const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
+  if (p_cam.z() < 0.5) return out;
+  const Eigen::Vector2d p_img = cam.ImageFromCam(p_cam);
+  if (p_img.x() < 0.08 * cam.width || p_img.x() > 0.92 * cam.width) return out;
+  const Eigen::Vector2d u = to_stem / d;
+  // Bands of rows, apart by their own height, within band_half_height_m of breast height.
+  const double px_per_m = cam.fx / p_cam.z();
+  const double band_step_m = (2 * o.rows_half + 1) / px_per_m;
+  const int bands = std::max(0, static_cast<int>(o.band_half_height_m / band_step_m));
+  std::vector<double> edge_y[2], edge_x[2];
+  out.tried = true;
+  const std::vector<Eigen::Vector3d> front = FrontOccluders(o, v, cc, u, d, r);
+  std::array<bool, 2> hidden = {false, false};  // at breast height
+  for (int j = -bands; j <= bands; ++j) {
+    const double z = breast_z + j * band_step_m;
+    // Predicted silhouettes at this height, and the nearer stems' beside them.
+    std::array<double, 2> xs;
+    if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, z, &xs)) continue;
+    std::vector<std::array<double, 2>> occluder_cols;
+    for (const Eigen::Vector3d& q : front) {
+      std::array<double, 2> qs;
+      if (SilhouetteColumns(cam, cam_from_world, cc, q.head<2>(), q.z(), z, &qs)) {
+        occluder_cols.push_back(qs);
+      }
+    }
+    const EdgeWindow window = WindowBesideOccluders(
+        occluder_cols, xs[0], xs[1], std::max(0.25 * o.search_px, 0.1 * (xs[1] - xs[0])));
+    if (j == 0) hidden = window.hidden;
+    const double y = cam.ImageFromCam(cam_from_world * Eigen::Vector3d(c.x(), c.y(), z)).y();
+    const Edges e = FindEdges(o, v, static_cast<int>(k), c, r, z, xs[0], xs[1], y, window);
+    if (e.left) edge_y[0].push_back(y), edge_x[0].push_back(e.x_left);
+    if (e.right) edge_y[1].push_back(y), edge_x[1].push_back(e.x_right);
+  }
+  const int min_points = std::max(1, (2 * bands + 1 + 1) / 2);
+  out.origin = cc;
+  out.y = p_img.y();
+  out.heading = std::atan2(-u.y(), -u.x());
+  for (int s = 0; s < 2; ++s) {
+    if (hidden[s]) {
+      ++out.hidden_sides;
+      continue;
+    }
+    double x;
+    if (!FitEdgeLine(edge_y[s], edge_x[s], p_img.y(), min_points, &x)) continue;
+    const Eigen::Vector3d ray = world_from_cam.rotation * cam.CamRayFromImage({x, p_img.y()});
+    Eigen::Vector2d dir = ray.head<2>();
+    if (dir.norm() < 1e-9) continue;
+    dir.normalize();
+    Eigen::Vector2d nrm(-dir.y(), dir.x());
+    if (nrm.dot(c - cc) < 0) nrm = -nrm;
+    out.found[s] = true;
+    out.normal[s] = nrm;
+    out.x[s] = x;
+  }
+  return out;
+}
+
 TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
                               const Eigen::Vector2d& centre0, double radius0, double r_start,
                               double breast_z) {
   TangentFit fit;
   Eigen::Vector2d c = centre0;
   double r = r_start;
-  const PinholeCamera& cam = *v.camera;
+  const int n_views = static_cast<int>(v.keyframes->size());
+  std::vector<ViewRays> per_view(n_views);
   for (int round = 0; round <= o.refits; ++round) {
+    // Views are measured apart (in parallel) and gathered in keyframe order, so the fit does not
+    // depend on the threads.
+#pragma omp parallel for schedule(dynamic)
+    for (int k = 0; k < n_views; ++k) per_view[k] = MeasureView(o, v, c, r, breast_z, k);
     std::vector<Eigen::Vector2d> normals, origins;
     std::vector<double> headings;
     int views = 0, tried = 0, hidden_sides = 0, two_sided = 0;
     std::array<int, 2> side_rays = {0, 0};
-    for (size_t k = 0; k < v.keyframes->size(); ++k) {
-      if ((*v.gray)[k].empty()) continue;
-      const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
-      const Rigid3d cam_from_world = world_from_cam.Inverse();
-      const Eigen::Vector2d cc = world_from_cam.translation.head<2>();
-      const Eigen::Vector2d to_stem = c - cc;
-      const double d = to_stem.norm();
-      if (d < r + 0.3) continue;
-      const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
-      if (p_cam.z() < 0.5) continue;
-      const Eigen::Vector2d p_img = cam.ImageFromCam(p_cam);
-      if (p_img.x() < 0.08 * cam.width || p_img.x() > 0.92 * cam.width) continue;
-      const Eigen::Vector2d u = to_stem / d;
-      // Bands of rows, apart by their own height, within band_half_height_m of breast height.
-      const double px_per_m = cam.fx / p_cam.z();
-      const double band_step_m = (2 * o.rows_half + 1) / px_per_m;
-      const int bands = std::max(0, static_cast<int>(o.band_half_height_m / band_step_m));
-      std::vector<double> edge_y[2], edge_x[2];
-      ++tried;
-      const std::vector<Eigen::Vector3d> front = FrontOccluders(o, v, cc, u, d, r);
-      std::array<bool, 2> hidden = {false, false};  // at breast height
-      for (int j = -bands; j <= bands; ++j) {
-        const double z = breast_z + j * band_step_m;
-        // Predicted silhouettes at this height, and the nearer stems' beside them.
-        std::array<double, 2> xs;
-        if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, z, &xs)) continue;
-        std::vector<std::array<double, 2>> occluder_cols;
-        for (const Eigen::Vector3d& q : front) {
-          std::array<double, 2> qs;
-          if (SilhouetteColumns(cam, cam_from_world, cc, q.head<2>(), q.z(), z, &qs)) {
-            occluder_cols.push_back(qs);
-          }
-        }
-        const EdgeWindow window = WindowBesideOccluders(
-            occluder_cols, xs[0], xs[1], std::max(0.25 * o.search_px, 0.1 * (xs[1] - xs[0])));
-        if (j == 0) hidden = window.hidden;
-        const double y = cam.ImageFromCam(cam_from_world * Eigen::Vector3d(c.x(), c.y(), z)).y();
-        const Edges e = FindEdges(o, v, static_cast<int>(k), c, r, z, xs[0], xs[1], y, window);
-        if (e.left) edge_y[0].push_back(y), edge_x[0].push_back(e.x_left);
-        if (e.right) edge_y[1].push_back(y), edge_x[1].push_back(e.x_right);
-      }
-      const int min_points = std::max(1, (2 * bands + 1 + 1) / 2);
-      int used = 0;
+    for (int k = 0; k < n_views; ++k) {
+      const ViewRays& w = per_view[k];
+      tried += w.tried;
+      hidden_sides += w.hidden_sides;
       for (int s = 0; s < 2; ++s) {
-        double x;
-        if (hidden[s]) {
-          ++hidden_sides;
-          continue;
-        }
-        if (!FitEdgeLine(edge_y[s], edge_x[s], p_img.y(), min_points, &x)) continue;
+        if (!w.found[s]) continue;
         // One line per silhouette for bench/silhouette_edges.py (image left = side 0).
         spdlog::trace(
             "tangent edge: start ({:.3f}, {:.3f}) r_start {:.4f} round {} keyframe {} t {:.4f} "
             "side {} x {:.2f} y {:.2f}",
-            centre0.x(), centre0.y(), r_start, round, k, (*v.keyframes)[k].t_s, s, x, p_img.y());
-        const Eigen::Vector3d ray = world_from_cam.rotation * cam.CamRayFromImage({x, p_img.y()});
-        Eigen::Vector2d dir = ray.head<2>();
-        if (dir.norm() < 1e-9) continue;
-        dir.normalize();
-        Eigen::Vector2d nrm(-dir.y(), dir.x());
-        if (nrm.dot(c - cc) < 0) nrm = -nrm;
-        normals.push_back(nrm);
-        origins.push_back(cc);
+            centre0.x(), centre0.y(), r_start, round, k, (*v.keyframes)[k].t_s, s, w.x[s], w.y);
+        normals.push_back(w.normal[s]);
+        origins.push_back(w.origin);
         ++side_rays[s];
-        ++used;
       }
-      if (used == 2) ++two_sided;
-      if (used > 0) {
+      if (w.used() == 2) ++two_sided;
+      if (w.used() > 0) {
         ++views;
-        const double h = std::atan2(-u.y(), -u.x());
+        const double h = w.heading;
         headings.push_back(
             headings.empty() ? h : headings[0] + std::remainder(h - headings[0], 2 * M_PI));
       }
