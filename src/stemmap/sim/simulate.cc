@@ -5,9 +5,15 @@
 
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <numbers>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <thread>
 
 #include "stemmap/camera/camera.h"
 #include "stemmap/core/error.h"
@@ -23,6 +29,57 @@
 namespace stemmap::sim {
 
 namespace fs = std::filesystem;
+
+namespace {
+
+// Rendered frames on their way to the sensor model, at most `capacity` at once.
+class RenderQueue {
+ public:
+  struct Item {
+    size_t index;
+    RenderBuffers buffers;
+  };
+  explicit RenderQueue(size_t capacity) : capacity_(capacity) {}
+
+  // False when the consumer gave up (Abort).
+  bool Push(Item item) {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return aborted_ || items_.size() < capacity_; });
+    if (aborted_) return false;
+    items_.push_back(std::move(item));
+    changed_.notify_all();
+    return true;
+  }
+  // The next item in order, or nullopt once the producer closed the queue and it is empty.
+  std::optional<Item> Pop() {
+    std::unique_lock lock(mutex_);
+    changed_.wait(lock, [&] { return closed_ || !items_.empty(); });
+    if (items_.empty()) return std::nullopt;
+    Item item = std::move(items_.front());
+    items_.pop_front();
+    changed_.notify_all();
+    return item;
+  }
+  void Close() {
+    const std::lock_guard lock(mutex_);
+    closed_ = true;
+    changed_.notify_all();
+  }
+  void Abort() {
+    const std::lock_guard lock(mutex_);
+    aborted_ = true;
+    changed_.notify_all();
+  }
+
+ private:
+  size_t capacity_;
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::deque<Item> items_;
+  bool closed_ = false, aborted_ = false;
+};
+
+}  // namespace
 
 void SimulateOptions::Check() const {
   if (out_dir.empty()) throw InputError("simulate needs an output folder (--out)");
@@ -139,28 +196,58 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
     still_frames.push_back(static_cast<int>(frames.size()) * k / std::max(o.stills, 1));
   }
   Progress progress("simulate", static_cast<int64_t>(frames.size()));
-  for (size_t i = 0; i < frames.size(); ++i) {
-    const auto t0 = std::chrono::steady_clock::now();
-    const RenderBuffers buffers = renderer.Render(frames[i].world_from_cam);
-    const auto t1 = std::chrono::steady_clock::now();
-    const cv::Mat bgr = sensor.Capture(buffers, frames[i].yaw_rate_rad_s, o.arm_radius_m,
-                                       static_cast<int>(i), 1.0 / o.fps);
-    const auto t2 = std::chrono::steady_clock::now();
-    writer.Write(bgr);
-    const auto t3 = std::chrono::steady_clock::now();
-    summary.render_s += std::chrono::duration<double>(t1 - t0).count();
-    summary.sensor_s += std::chrono::duration<double>(t2 - t1).count();
-    summary.encode_s += std::chrono::duration<double>(t3 - t2).count();
-    if (std::find(still_frames.begin(), still_frames.end(), static_cast<int>(i)) !=
-        still_frames.end()) {
-      const fs::path png = o.out_dir / "stills" / fmt::format("frame_{:05d}.png", i);
-      fs::create_directories(png.parent_path());
-      std::vector<uchar> buf;
-      cv::imencode(".png", bgr, buf);
-      WriteFileAtomic(png, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
+  // The sensor model and the encoder take frame i on their own thread while frame i + 1 renders:
+  // they fill the moments the renderer's threads wait for each other. One consumer keeps the
+  // frame order, which the auto-exposure (state carried from frame to frame) and the file need.
+  RenderQueue queue(2);
+  std::exception_ptr develop_error;
+  std::thread develop([&] {
+    try {
+      while (std::optional<RenderQueue::Item> item = queue.Pop()) {
+        const size_t i = item->index;
+        const auto t1 = std::chrono::steady_clock::now();
+        const cv::Mat bgr = sensor.Capture(item->buffers, frames[i].yaw_rate_rad_s, o.arm_radius_m,
+                                           static_cast<int>(i), 1.0 / o.fps);
+        const auto t2 = std::chrono::steady_clock::now();
+        writer.Write(bgr);
+        const auto t3 = std::chrono::steady_clock::now();
+        summary.sensor_s += std::chrono::duration<double>(t2 - t1).count();
+        summary.encode_s += std::chrono::duration<double>(t3 - t2).count();
+        if (std::find(still_frames.begin(), still_frames.end(), static_cast<int>(i)) !=
+            still_frames.end()) {
+          const fs::path png = o.out_dir / "stills" / fmt::format("frame_{:05d}.png", i);
+          fs::create_directories(png.parent_path());
+          std::vector<uchar> buf;
+          cv::imencode(".png", bgr, buf);
+          WriteFileAtomic(png,
+                          std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
+        }
+        progress.Update(static_cast<int64_t>(i + 1));
+      }
+    } catch (...) {
+      develop_error = std::current_exception();
+      queue.Abort();
     }
-    progress.Update(static_cast<int64_t>(i + 1));
+  });
+  {
+    // Whatever happens here, the developing thread is told no more frames come, and waited for.
+    struct JoinOnExit {
+      RenderQueue& queue;
+      std::thread& thread;
+      ~JoinOnExit() {
+        queue.Close();
+        thread.join();
+      }
+    } join_on_exit{queue, develop};
+    for (size_t i = 0; i < frames.size(); ++i) {
+      const auto t0 = std::chrono::steady_clock::now();
+      RenderBuffers buffers = renderer.Render(frames[i].world_from_cam);
+      summary.render_s +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (!queue.Push({i, std::move(buffers)})) break;  // the developing thread failed
+    }
   }
+  if (develop_error) std::rethrow_exception(develop_error);
   progress.Finish();
   writer.Close();
   summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
