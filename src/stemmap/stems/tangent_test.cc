@@ -1,6 +1,7 @@
 #include "stemmap/stems/tangent.h"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <Eigen/Geometry>
 #include <functional>
@@ -230,6 +231,27 @@ TEST(Tangent, FitsARenderedStem) {
     EXPECT_GT(fit.views, 10);
     EXPECT_EQ(fit.hidden_sides, 0);
   }
+}
+
+// Views are measured in parallel and gathered in keyframe order: the threads change nothing.
+TEST(Tangent, TheFitDoesNotDependOnTheThreads) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const RenderedStem scene = RenderStems({{centre.x(), centre.y(), 0.15}}, true);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  auto fit_with = [&](int threads) {
+    const int before = omp_get_max_threads();
+    omp_set_num_threads(threads);
+    const TangentFit fit = FitTangentRays(TangentOptions().ForImageScale(640.0 / 960.0), views,
+                                          centre * (1.0 + 0.3 / centre.norm()), 0.13, 1.37);
+    omp_set_num_threads(before);
+    return fit;
+  };
+  const TangentFit one = fit_with(1), three = fit_with(3);
+  ASSERT_TRUE(one.ok);
+  EXPECT_EQ(one.radius_m, three.radius_m);
+  EXPECT_EQ(one.centre, three.centre);
+  EXPECT_EQ(one.rays, three.rays);
+  EXPECT_EQ(one.two_sided_views, three.two_sided_views);
 }
 
 // A sunlit side brighter than a plain sky, the stem's middle darker: the silhouette is the step
