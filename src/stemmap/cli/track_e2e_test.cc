@@ -118,6 +118,11 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   const nlohmann::json summary = ReadJsonFile(dir / "out" / "summary.json");
   EXPECT_EQ(summary["plot"]["stems"].get<int>(), r.figures.stems);
   EXPECT_GT(r.figures.basal_area_m2_per_ha, 0.0);
+  // The resolved options sit beside the outputs, the silhouette search's included.
+  const nlohmann::json saved = ReadJsonFile(dir / "out" / "process_options.json");
+  EXPECT_EQ(saved["tangent"]["sideways_start_shifts"].get<std::vector<double>>(),
+            o.tangent.sideways_start_shifts);
+  EXPECT_EQ(saved["breast_height_m"].get<double>(), o.stems.breast_height_m);
   for (const stems::Stem& s : r.stems) EXPECT_GE(100 * s.dbh_m, o.min_dbh_cm);
   // A short, small clip: most near trees found, none far off.
   eval::EvaluateOptions eo;

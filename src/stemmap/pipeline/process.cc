@@ -478,6 +478,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
        {"near_stereo_pair_turn_deg", o.dense.near_pair_turn_deg},
+       {"tangent", o.tangent},
        {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});
   WriteJsonAtomic(out_dir / "summary.json", s);
   return r;

@@ -626,14 +626,24 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
   // pixel, and no narrower than a share of the cloud's width: inside a stem, bark and the border
   // of sun and shade give loose pairs of edges too.
   const double px_m = centre0.norm() / v.camera->fx;
-  for (double scale : o.narrow_start_scales) {
-    const TangentFit other = FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z);
+  // Clearly more two-sided views than the fit so far (a few pairs also come from a sapling), both
+  // sides on one circle to about a pixel.
+  auto take_if_clearly_better = [&](const TangentFit& other) {
     const bool trusted = other.ok && other.two_sided_views >= 3 &&
                          other.rms_m < o.narrow_max_rms_px * px_m &&
                          other.radius_m > o.narrow_min_share * radius0;
-    // Clearly more two-sided views than the start's fit: a few pairs also come from a sapling.
-    if (trusted && (!fit.ok || 2 * other.two_sided_views >= 3 * fit.two_sided_views)) {
-      fit = other;
+    if (trusted && (!fit.ok || 2 * other.two_sided_views >= 3 * fit.two_sided_views)) fit = other;
+  };
+  for (double scale : o.narrow_start_scales) {
+    take_if_clearly_better(FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z));
+  }
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
+  for (double shift : o.sideways_start_shifts) {
+    for (double side : {-1.0, 1.0}) {
+      const Eigen::Vector2d moved = centre0 + side * shift * radius0 * across;
+      const TangentFit other = FitTangentRaysFrom(o, v, moved, radius0, radius0, breast_z);
+      // Away from where the cloud put it, only a stem seen whole in most views stands.
+      if (2 * other.two_sided_views >= other.tried_views) take_if_clearly_better(other);
     }
   }
   for (double scale : o.wide_start_scales) {

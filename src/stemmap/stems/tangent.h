@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -48,6 +49,11 @@ struct TangentOptions {
   std::vector<double> narrow_start_scales = {0.5};
   double narrow_max_rms_px = 1.2;  // ray rms (px at the stem) a narrower start's fit must keep
   double narrow_min_share = 0.35;  // of radius0: the narrowest fit that can stand for the stem
+  // And from the centre moved across the line of sight by these multiples of radius0 (each way):
+  // stereo smears a stem's points onto what stands beside it, so the cloud can place a thin stem
+  // a width to the side, where the start's edges are its own and its neighbour's. Such a fit must
+  // be two-sided in most views and is held to the narrower start's bounds.
+  std::vector<double> sideways_start_shifts = {1.0, 2.0};
   // The largest radius, as a multiple of radius0, that a fit from these starts may reach:
   // a little beyond the widest (a fit grows from its start), and 2.5 without wide starts.
   double WidestFitScale() const {
@@ -69,6 +75,9 @@ struct TangentOptions {
     return t;
   }
 };
+
+// The options as saved next to the outputs (pixel sizes for a 960-px wide working image).
+void to_json(nlohmann::json& j, const TangentOptions& o);
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images

@@ -368,6 +368,33 @@ TEST(Tangent, FitsAStemWhoseCloudPartLiesToOneSide) {
   EXPECT_GT(fit.two_sided_views, 10);
 }
 
+// Stereo smeared a thin stem's points onto the background beside it: the cloud's part has about
+// the stem's width but lies a width to one side, so a search from it sees the stem's near side as
+// its far one, and finds nothing where it expects the other. A start moved across the line of
+// sight finds both silhouettes.
+TEST(Tangent, FitsAThinStemTheCloudPlacedAWidthToOneSide) {
+  const Eigen::Vector2d centre(7.0, 0.3);
+  const double radius = 0.075;
+  const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}}, false);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre.y(), centre.x()).normalized();
+  const TangentOptions o = TangentOptions().ForImageScale(640.0 / 960.0);
+  for (double side : {-1.0, 1.0}) {
+    SCOPED_TRACE(side);
+    const Eigen::Vector2d start = centre + side * 2 * radius * across;
+    const TangentFit fit = FitTangentRays(o, views, start, radius, 1.37);
+    ASSERT_TRUE(fit.ok);
+    // A pixel is 14 mm at the stem in these 640-px images.
+    EXPECT_NEAR(fit.radius_m, radius, 0.007);
+    EXPECT_LT(std::abs(across.dot(fit.centre - centre)), 0.02);
+    EXPECT_GT(2 * fit.two_sided_views, fit.tried_views);
+    TangentOptions in_place = o;
+    in_place.sideways_start_shifts.clear();
+    const TangentFit unmoved = FitTangentRays(in_place, views, start, radius, 1.37);
+    EXPECT_FALSE(unmoved.ok && std::abs(across.dot(unmoved.centre - centre)) < 0.02);
+  }
+}
+
 TEST(Tangent, DegenerateSystems) {
   Eigen::Vector2d c;
   double r, sd, rms;
