@@ -1,0 +1,358 @@
+#include "stemmap/stems/silhouette.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+namespace stemmap::stems {
+
+namespace {
+
+float Bilinear(const cv::Mat& img, double x, double y) {
+  if (x < 0 || y < 0 || x > img.cols - 2 || y > img.rows - 2) return -1.f;
+  const int xi = static_cast<int>(x), yi = static_cast<int>(y);
+  const double fx = x - xi, fy = y - yi;
+  const uchar* r0 = img.ptr<uchar>(yi);
+  const uchar* r1 = img.ptr<uchar>(yi + 1);
+  return static_cast<float>((1 - fy) * ((1 - fx) * r0[xi] + fx * r0[xi + 1]) +
+                            fy * ((1 - fx) * r1[xi] + fx * r1[xi + 1]));
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+// Silhouette as the strongest brightness step within `half_window` of x_pred whose outer side
+// (dir: outward) looks like the background and whose inner side does not; `row` sums `rows`
+// rows of the image, the lumas are per pixel. Sub-pixel by a parabola through the peak.
+bool BrightnessEdge(const TangentOptions& o, const std::vector<double>& row, int rows,
+                    double stem_luma, double bg_luma, int dir, double x_pred, double half_window,
+                    double* x_edge) {
+  const int width = static_cast<int>(row.size());
+  if (std::abs(bg_luma - stem_luma) < o.min_brightness_contrast) return false;
+  int best = -1;
+  double best_g = 0;
+  // Mean brightness 2-4 px to one side of i (towards: outward +1, inward -1).
+  auto side_luma = [&](int i, int towards) {
+    double sum = 0;
+    int n = 0;
+    for (int j = 2; j <= 4; ++j) {
+      const int q = i + towards * dir * j;
+      if (q >= 0 && q < width) sum += row[q], ++n;
+    }
+    return n ? sum / (n * rows) : -1e9;
+  };
+  for (int i = 1; i < width - 1; ++i) {
+    if (std::abs(i - x_pred) > half_window) continue;
+    const double out = std::abs(side_luma(i, 1) - bg_luma);
+    const double in = std::abs(side_luma(i, -1) - bg_luma);
+    if (!(out < in && out < 0.5 * o.min_brightness_contrast && in >= o.min_brightness_contrast))
+      continue;
+    const double g = std::abs(row[i + 1] - row[i - 1]);
+    if (g > best_g) best_g = g, best = i;
+  }
+  if (best < 2 || best > width - 3 || best_g < 0.5 * o.min_brightness_contrast * rows) {
+    return false;
+  }
+  const double sign = row[best + 1] >= row[best - 1] ? 1.0 : -1.0;
+  const double gm = sign * (row[best] - row[best - 2]), gp = sign * (row[best + 2] - row[best]);
+  const double den = gm - 2 * best_g + gp;
+  const double off = den < 0 ? 0.5 * (gm - gp) / den : 0.0;
+  *x_edge = best + std::clamp(off, -0.5, 0.5);
+  return true;
+}
+
+}  // namespace
+
+// Silhouette columns of the stem in keyframe k at image row y0, from the disagreement between
+// k and its neighbours warped through the stem's front plane.
+Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eigen::Vector2d& c0,
+                double r0, double breast_z, double x_pred_left, double x_pred_right, double y0,
+                const EdgeWindow& window) {
+  Edges edges;
+  if (window.hidden[0] && window.hidden[1]) return edges;
+  const PinholeCamera& cam = *v.camera;
+  const std::vector<StampedPose>& kfs = *v.keyframes;
+  const cv::Mat& img = (*v.gray)[k];
+  const Rigid3d& world_from_k = kfs[k].world_from_cam;
+  const Eigen::Vector3d ck = world_from_k.translation;
+  // Pixels are carried to the neighbours through the stem's own surface (the circle (c0, r0) at
+  // every height), so bark lines up at any baseline; rays that miss it go through the plane of
+  // the axis facing k, where they do not line up with what lies behind.
+  Eigen::Vector3d n_w(ck.x() - c0.x(), ck.y() - c0.y(), 0.0);
+  n_w.normalize();
+  const double plane_d = n_w.dot(Eigen::Vector3d(c0.x(), c0.y(), breast_z));
+  auto depth_along = [&](const Eigen::Vector3d& ray) {
+    const Eigen::Vector2d q = ck.head<2>() - c0, u = ray.head<2>();
+    const double a = u.squaredNorm(), b = q.dot(u), cq = q.squaredNorm() - r0 * r0;
+    const double disc = b * b - a * cq;
+    if (a > 1e-12 && disc >= 0) {
+      const double t = (-b - std::sqrt(disc)) / a;
+      if (t > 0) return t;
+    }
+    const double denom = n_w.dot(ray);
+    return std::abs(denom) < 1e-9 ? -1.0 : (plane_d - n_w.dot(ck)) / denom;
+  };
+  // Neighbours far enough for what lies at 1.5 times the stem's distance to move by
+  // background_parallax_px against the stem.
+  const double dist = (ck.head<2>() - c0).norm();
+  const double baseline_m = 3.0 * o.background_parallax_px * dist / cam.fx;
+  const double half_w = 0.5 * (x_pred_right - x_pred_left);
+  const double margin = std::max(o.search_px, o.search_share * half_w);
+  const int x_begin = static_cast<int>(std::floor(x_pred_left - margin));
+  const int x_end = static_cast<int>(std::ceil(x_pred_right + margin));
+  const int y_begin = static_cast<int>(std::lround(y0)) - o.rows_half;
+  const int y_end = static_cast<int>(std::lround(y0)) + o.rows_half;
+  if (x_begin < 1 || x_end > img.cols - 2 || y_begin < 1 || y_end > img.rows - 2) return edges;
+  const int width = x_end - x_begin + 1;
+  std::vector<double> diff(width, 0.0);
+  std::vector<int> count(width, 0);
+  // Where each pixel's ray meets the stem's surface (or the axis plane), shared by both
+  // neighbours; NaN where the ray goes away from it.
+  std::vector<Eigen::Vector3d> on_stem(static_cast<size_t>(y_end - y_begin + 1) * width);
+  for (int y = y_begin; y <= y_end; ++y) {
+    for (int x = x_begin; x <= x_end; ++x) {
+      const Eigen::Vector3d ray = world_from_k.rotation * cam.CamRayFromImage({x, y});
+      const double t = depth_along(ray);
+      on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)] =
+          t <= 0 ? Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())
+                 : Eigen::Vector3d(ck + t * ray);
+    }
+  }
+  for (int side : {-1, 1}) {
+    int j = k + side;
+    while (j + side >= 0 && j + side < static_cast<int>(kfs.size()) &&
+           std::abs(j - k) < o.max_neighbour_offset &&
+           (kfs[j].world_from_cam.translation - ck).head<2>().norm() < baseline_m) {
+      j += side;
+    }
+    if (j < 0 || j >= static_cast<int>(kfs.size()) || (*v.gray)[j].empty()) continue;
+    const Rigid3d j_from_world = kfs[j].world_from_cam.Inverse();
+    const cv::Mat& img_j = (*v.gray)[j];
+    for (int y = y_begin; y <= y_end; ++y) {
+      for (int x = x_begin; x <= x_end; ++x) {
+        const Eigen::Vector3d& p_w =
+            on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)];
+        if (std::isnan(p_w.x())) continue;
+        const Eigen::Vector3d p_j = j_from_world * p_w;
+        if (p_j.z() <= 0.1) continue;
+        const Eigen::Vector2d px = cam.ImageFromCam(p_j);
+        const float vj = Bilinear(img_j, px.x(), px.y());
+        if (vj < 0) continue;
+        diff[x - x_begin] += std::abs(img.at<uchar>(y, x) - vj);
+        ++count[x - x_begin];
+      }
+    }
+  }
+  for (int i = 0; i < width; ++i) {
+    if (count[i] == 0) return edges;
+    diff[i] /= count[i];
+  }
+  std::vector<double> smooth(width);
+  for (int i = 0; i < width; ++i) {
+    const int a = std::max(0, i - 1), b = std::min(width - 1, i + 1);
+    smooth[i] = (diff[a] + diff[i] + diff[b]) / 3.0;
+  }
+  // Brightness across the rows, for sub-pixel refinement on the image edge itself.
+  std::vector<double> row(width, 0.0);
+  for (int y = y_begin; y <= y_end; ++y) {
+    for (int x = x_begin; x <= x_end; ++x) row[x - x_begin] += img.at<uchar>(y, x);
+  }
+  auto refine = [&](double x0) {
+    // Strongest brightness step within 1.5 px of the depth edge; parabola through its peak.
+    const int i0 = static_cast<int>(std::lround(x0 - x_begin));
+    int best = -1;
+    double best_g = 0;
+    for (int i = std::max(1, i0 - 2); i <= std::min(width - 2, i0 + 2); ++i) {
+      const double g = std::abs(row[i + 1] - row[i - 1]);
+      if (g > best_g && std::abs(i - (x0 - x_begin)) <= 1.5) {
+        best_g = g;
+        best = i;
+      }
+    }
+    if (best <= 1 || best >= width - 2 || best_g < 4.0 * (2 * o.rows_half + 1)) return x0;
+    const double gm = std::abs(row[best] - row[best - 2]), gp = std::abs(row[best + 2] - row[best]);
+    const double den = gm - 2 * best_g + gp;
+    const double off = den < 0 ? 0.5 * (gm - gp) / den : 0.0;
+    return x_begin + best + std::clamp(off, -0.5, 0.5);
+  };
+  const double xl = x_pred_left - x_begin, xr = x_pred_right - x_begin;
+  const int rows = 2 * o.rows_half + 1;
+  // One side's silhouette (dir -1: left, +1: right). Levels inside the stem come from the middle
+  // half of the part this side sees (all of it, unless a nearer stem covers some), levels
+  // outside from what lies beyond the edge up to the next nearer stem.
+  auto scan = [&](int dir, double* x_edge) {
+    const int side = dir > 0;
+    const double x_pred = dir < 0 ? xl : xr;
+    const double inner = window.inner_end[side] - x_begin;
+    const double outer = window.outer_end[side] - x_begin;
+    const double lo = dir < 0 ? xl : std::max(xl, inner), hi = dir < 0 ? std::min(xr, inner) : xr;
+    const double xm = 0.5 * (lo + hi);
+    std::vector<double> inside, outside, row_inside, row_beyond;
+    for (int i = 0; i < width; ++i) {
+      if (std::abs(i - xm) < 0.25 * (hi - lo)) {
+        inside.push_back(smooth[i]);
+        row_inside.push_back(row[i]);
+      }
+      if (dir * (i - outer) >= 0) continue;  // the next nearer stem
+      if (dir * (i - x_pred) > 3) {
+        outside.push_back(smooth[i]);
+        row_beyond.push_back(row[i]);
+      }
+    }
+    if (outside.size() < 3 || inside.empty()) return false;
+    const double stem = Median(inside);
+    const double bg = Median(outside);
+    bool found = false;
+    double x = 0;
+    if (bg - stem < o.min_contrast) {
+      // What lies behind disagrees too little (plain sky, a smooth far background): the
+      // silhouette is the strongest brightness step near the predicted edge. Either sign: a
+      // sunlit side can be brighter than the background while the stem's middle is darker.
+      found = BrightnessEdge(o, row, rows, Median(row_inside) / rows, Median(row_beyond) / rows,
+                             dir, x_pred, std::max(3.0, 0.2 * (xr - xl)), &x);
+      if (found) x += x_begin;
+    } else {
+      const int run = std::clamp(static_cast<int>(0.05 * (xr - xl)), 3, 10);
+      found = FirstSustainedCrossing(smooth, static_cast<int>(std::lround(xm)), dir,
+                                     0.5 * (stem + bg), run, &x);
+      if (found) {
+        x += x_begin;
+        if (o.refine_on_brightness) x = refine(x);
+      }
+    }
+    // An edge at the next nearer stem is that stem's.
+    if (!found || dir * (window.outer_end[side] - x) < o.search_px / 4) return false;
+    *x_edge = x;
+    return true;
+  };
+  if (!window.hidden[0]) edges.left = scan(-1, &edges.x_left);
+  if (!window.hidden[1]) edges.right = scan(1, &edges.x_right);
+  edges.y = y0;
+  return edges;
+}
+
+bool FirstSustainedCrossing(const std::vector<double>& profile, int start, int dir, double tau,
+                            int run, double* x) {
+  const int n = static_cast<int>(profile.size());
+  auto inside = [&](int i) { return i >= 0 && i < n; };
+  auto sustained = [&](int i) {
+    double sum = 0;
+    int count = 0;
+    for (int q = 1; q <= run && inside(i + q * dir); ++q) sum += profile[i + q * dir], ++count;
+    return count > 0 && sum / count > tau;
+  };
+  if (!inside(start)) return false;
+  int i = start;
+  while (inside(i + dir) && (profile[i + dir] <= tau || !sustained(i))) i += dir;
+  if (!inside(i + dir)) return false;
+  // Crossing between i (below) and i + dir (above), linearly interpolated.
+  const double a = profile[i], b = profile[i + dir];
+  const double f = b > a ? (tau - a) / (b - a) : 0.5;
+  *x = i + dir * f;
+  return true;
+}
+
+bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, double y0,
+                 int min_points, double* x_at_y0) {
+  const int n = static_cast<int>(x.size());
+  if (n < min_points) return false;
+  std::vector<double> slopes;
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      if (std::abs(y[j] - y[i]) > 0.5) slopes.push_back((x[j] - x[i]) / (y[j] - y[i]));
+    }
+  }
+  double b = slopes.empty() ? 0.0 : Median(slopes);
+  std::vector<double> offsets(n), dev(n);
+  for (int i = 0; i < n; ++i) offsets[i] = x[i] - b * (y[i] - y0);
+  double a = Median(offsets);
+  for (int i = 0; i < n; ++i) dev[i] = std::abs(offsets[i] - a);
+  const double tol = std::max(1.0, 3.0 * 1.4826 * Median(dev));
+  double sw = 0, sy = 0, sx = 0, syy = 0, sxy = 0;
+  for (int i = 0; i < n; ++i) {
+    if (std::abs(x[i] - (a + b * (y[i] - y0))) > tol) continue;
+    const double dy = y[i] - y0;
+    sw += 1, sy += dy, sx += x[i], syy += dy * dy, sxy += dy * x[i];
+  }
+  if (sw < min_points) return false;
+  const double den = sw * syy - sy * sy;
+  if (den > 1e-9) b = (sw * sxy - sy * sx) / den;
+  a = (sx - b * sy) / sw;
+  // A silhouette leans a few degrees at most.
+  if (std::abs(b) > 0.15) return false;
+  *x_at_y0 = a;
+  return true;
+}
+
+// The nearer stems (x, y, radius) in front of a stem at distance d along u from the camera centre
+// cc: their silhouettes may cover its own or stand in its edge search.
+std::vector<Eigen::Vector3d> FrontOccluders(const TangentOptions& o, const TangentViews& v,
+                                            const Eigen::Vector2d& cc, const Eigen::Vector2d& u,
+                                            double d, double r) {
+  std::vector<Eigen::Vector3d> front;
+  if (!v.occluders) return front;
+  for (const Eigen::Vector3d& q : *v.occluders) {
+    const Eigen::Vector2d to_q = q.head<2>() - cc;
+    const double dq = to_q.norm();
+    if (dq <= q.z() || dq + q.z() >= d - r) continue;  // not in front
+    // The stem itself (its start, before the fit moved it), or one merged with it.
+    if ((to_q - d * u).norm() < q.z() + r + o.occluder_min_gap_m) continue;
+    // Beside the line of sight by more than a right angle: out of the picture.
+    if (to_q.dot(u) <= 0) continue;
+    front.push_back(q);
+  }
+  return front;
+}
+
+// Image columns (ascending) of the silhouettes of the vertical circle (centre, r) at height z
+// seen from a camera at cc; false when a silhouette lies behind the camera.
+bool SilhouetteColumns(const PinholeCamera& cam, const Rigid3d& cam_from_world,
+                       const Eigen::Vector2d& cc, const Eigen::Vector2d& centre, double r, double z,
+                       std::array<double, 2>* xs) {
+  const Eigen::Vector2d to = centre - cc;
+  const double d = to.norm();
+  if (d <= r) return false;
+  const double alpha = std::asin(r / d);
+  for (int s = 0; s < 2; ++s) {
+    const double a = (s == 0 ? 1 : -1) * (M_PI / 2 - alpha);
+    const Eigen::Vector2d tp = centre + r * (Eigen::Rotation2Dd(a) * (-to / d));
+    const Eigen::Vector3d p = cam_from_world * Eigen::Vector3d(tp.x(), tp.y(), z);
+    if (p.z() < 0.1) return false;
+    (*xs)[s] = cam.ImageFromCam(p).x();
+  }
+  if ((*xs)[0] > (*xs)[1]) std::swap((*xs)[0], (*xs)[1]);
+  return true;
+}
+
+// The edge search a stem predicted at columns [xl, xr] has beside nearer stems at the given
+// columns: a side whose edge one covers, or with less than `guard` px of the stem or of what lies
+// behind it showing there, is hidden; otherwise the search stops at them.
+EdgeWindow WindowBesideOccluders(const std::vector<std::array<double, 2>>& occluder_cols, double xl,
+                                 double xr, double guard) {
+  EdgeWindow w;
+  w.inner_end = {xr, xl};
+  for (const auto& [ol, orr] : occluder_cols) {
+    if (ol < xl + guard && orr > xl - guard) {
+      w.hidden[0] = true;
+    } else if (orr <= xl - guard) {
+      w.outer_end[0] = std::max(w.outer_end[0], orr);
+    } else {
+      w.inner_end[0] = std::min(w.inner_end[0], ol);
+    }
+    if (ol < xr + guard && orr > xr - guard) {
+      w.hidden[1] = true;
+    } else if (ol >= xr + guard) {
+      w.outer_end[1] = std::min(w.outer_end[1], ol);
+    } else {
+      w.inner_end[1] = std::max(w.inner_end[1], orr);
+    }
+  }
+  if (w.inner_end[0] - xl < 3 * guard || xl - w.outer_end[0] < 3 * guard) w.hidden[0] = true;
+  if (xr - w.inner_end[1] < 3 * guard || w.outer_end[1] - xr < 3 * guard) w.hidden[1] = true;
+  return w;
+}
+
+}  // namespace stemmap::stems

@@ -1,0 +1,53 @@
+#pragma once
+
+// Silhouette edges of a stem in one keyframe, for the tangent-ray fit (tangent.cc): where the
+// stem's predicted outline lies in the image, where nearer stems leave it free, and the edges
+// themselves.
+#include <Eigen/Core>
+#include <array>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
+#include "stemmap/stems/tangent.h"
+
+namespace stemmap::stems {
+
+struct Edges {
+  bool left = false, right = false;
+  double x_left = 0, x_right = 0, y = 0;
+};
+
+// Where nearer stems leave a view's edge search free, in image columns (side 0: the stem's image
+// left, 1: its right). The stem shows from its side's predicted edge inward to inner_end (a
+// nearer stem covers the rest), and what lies beyond the edge is seen out to outer_end.
+struct EdgeWindow {
+  std::array<double, 2> inner_end = {1e9, -1e9};
+  std::array<double, 2> outer_end = {-1e9, 1e9};
+  std::array<bool, 2> hidden = {false, false};
+};
+
+// Silhouette columns of the stem (c0, r0) in keyframe k at image row y0, from the disagreement
+// between k and its neighbours warped through the stem's surface.
+Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eigen::Vector2d& c0,
+                double r0, double breast_z, double x_pred_left, double x_pred_right, double y0,
+                const EdgeWindow& window);
+
+// The nearer stems (x, y, radius) in front of a stem at distance d along u from the camera centre
+// cc.
+std::vector<Eigen::Vector3d> FrontOccluders(const TangentOptions& o, const TangentViews& v,
+                                            const Eigen::Vector2d& cc, const Eigen::Vector2d& u,
+                                            double d, double r);
+
+// Image columns (ascending) of the silhouettes of the vertical circle (centre, r) at height z
+// seen from a camera at cc; false when a silhouette lies behind the camera.
+bool SilhouetteColumns(const PinholeCamera& cam, const Rigid3d& cam_from_world,
+                       const Eigen::Vector2d& cc, const Eigen::Vector2d& centre, double r, double z,
+                       std::array<double, 2>* xs);
+
+// The edge search a stem predicted at columns [xl, xr] has beside nearer stems at the given
+// columns.
+EdgeWindow WindowBesideOccluders(const std::vector<std::array<double, 2>>& occluder_cols, double xl,
+                                 double xr, double guard);
+
+}  // namespace stemmap::stems
