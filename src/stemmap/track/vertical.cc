@@ -22,7 +22,8 @@ void VerticalOptions::Check() const {
 
 std::vector<int> GroupRaysByTrunk(const VerticalOptions& o,
                                   const std::vector<Eigen::Vector2d>& origins,
-                                  const std::vector<Eigen::Vector2d>& directions) {
+                                  const std::vector<Eigen::Vector2d>& directions,
+                                  const std::vector<int>& views) {
   const int n_rays = static_cast<int>(origins.size());
   const double extent = o.max_range_m + 2.0;  // cameras sit within a metre or so of the axis
   const int side = static_cast<int>(std::ceil(2 * extent / o.cell_m));
@@ -31,8 +32,6 @@ std::vector<int> GroupRaysByTrunk(const VerticalOptions& o,
     const int j = static_cast<int>(std::floor((p.y() + extent) / o.cell_m));
     return (i < 0 || j < 0 || i >= side || j >= side) ? -1 : j * side + i;
   };
-  // Every cell a ray crosses gets one vote from it.
-  std::vector<int> votes(static_cast<size_t>(side) * side, 0);
   std::vector<std::vector<int>> crossed(n_rays);
   for (int r = 0; r < n_rays; ++r) {
     for (double t = o.min_range_m; t <= o.max_range_m; t += 0.5 * o.cell_m) {
@@ -42,7 +41,29 @@ std::vector<int> GroupRaysByTrunk(const VerticalOptions& o,
     std::ranges::sort(crossed[r]);
     const auto [first, last] = std::ranges::unique(crossed[r]);
     crossed[r].erase(first, last);
-    for (int c : crossed[r]) ++votes[c];
+  }
+  // A cell gets one vote from each view with a ray through it: all of a view's rays meet at its
+  // camera, so counting rays would make trunks of the cells just in front of every camera. Per
+  // view, the cells its rays cross (sorted) and how many of its rays cross each.
+  std::map<int, std::vector<std::pair<int, int>>> rays_in_cell;  // view -> (cell, rays)
+  {
+    std::map<int, std::vector<int>> cells_of_view;
+    for (int r = 0; r < n_rays; ++r) {
+      std::vector<int>& cells = cells_of_view[views[r]];
+      cells.insert(cells.end(), crossed[r].begin(), crossed[r].end());
+    }
+    for (auto& [view, cells] : cells_of_view) {
+      std::ranges::sort(cells);
+      std::vector<std::pair<int, int>>& counted = rays_in_cell[view];
+      for (int c : cells) {
+        if (counted.empty() || counted.back().first != c) counted.emplace_back(c, 0);
+        ++counted.back().second;
+      }
+    }
+  }
+  std::vector<int> votes(static_cast<size_t>(side) * side, 0);
+  for (const auto& [view, counted] : rays_in_cell) {
+    for (const auto& [c, rays] : counted) ++votes[c];
   }
   // Greedy: the best-voted cell is a trunk; its rays leave the vote.
   std::vector<int> group(n_rays, -1);
@@ -59,10 +80,14 @@ std::vector<int> GroupRaysByTrunk(const VerticalOptions& o,
       const Eigen::Vector2d q = centre - origins[r];
       const double along = q.dot(directions[r]);
       const double across = std::abs(q.x() * directions[r].y() - q.y() * directions[r].x());
-      if (along <= 0 || across > o.ray_tolerance_m) continue;
+      if (along < o.min_range_m - o.cell_m || across > o.ray_tolerance_m) continue;
       group[r] = groups;
       ++members;
-      for (int k : crossed[r]) --votes[k];
+      std::vector<std::pair<int, int>>& counted = rays_in_cell[views[r]];
+      for (int k : crossed[r]) {
+        auto it = std::ranges::lower_bound(counted, std::make_pair(k, 0));
+        if (--it->second == 0) --votes[k];
+      }
     }
     if (members == 0) {
       votes[c] = 0;  // its voters passed too far from the cell's centre
@@ -87,6 +112,7 @@ VerticalEstimate EstimateVertical(const VerticalOptions& o, const std::vector<Ke
   // says where along the plane its trunk stands.
   std::vector<Eigen::Vector3d> normals;
   std::vector<Eigen::Vector2d> origins, directions;
+  std::vector<int> views;
   for (size_t k = 0; k < keyframes.size() && k < map.cam_from_world.size(); ++k) {
     const Eigen::Quaterniond world_from_cam = map.cam_from_world[k].conjugate();
     for (const cv::Vec4f& s : keyframes[k].vertical_segments) {
@@ -98,10 +124,16 @@ VerticalEstimate EstimateVertical(const VerticalOptions& o, const std::vector<Ke
       normals.push_back(n.normalized());
       origins.push_back(map.centre_world[k].head<2>());
       directions.push_back(d.normalized());
+      views.push_back(static_cast<int>(k));
+      // One line per segment, for checking the grouping and the estimate offline.
+      spdlog::trace(
+          "vertical segment: view {} n {:.6f} {:.6f} {:.6f} origin {:.4f} {:.4f} dir {:.6f} {:.6f}",
+          k, normals.back().x(), normals.back().y(), normals.back().z(), origins.back().x(),
+          origins.back().y(), directions.back().x(), directions.back().y());
     }
   }
   // Each trunk's segments share one unit of weight.
-  const std::vector<int> trunk = GroupRaysByTrunk(o, origins, directions);
+  const std::vector<int> trunk = GroupRaysByTrunk(o, origins, directions, views);
   std::map<int, int> per_trunk;
   for (int t : trunk) ++per_trunk[t];
   std::vector<double> weight(normals.size());

@@ -44,9 +44,12 @@ VerticalEstimate EstimateVertical(const VerticalOptions& o, const std::vector<Ke
                                   const SparseMap& map, const PinholeCamera& camera);
 
 // Groups horizontal rays (origin, unit direction; axis frame) that meet at one trunk, as
-// EstimateVertical does; returns one group index per ray (rays in no group get their own).
+// EstimateVertical does; `views` says which view (keyframe) each ray comes from, and a place
+// needs rays from min_trunk_segments views to be a trunk. Returns one group index per ray (rays
+// in no group get their own).
 std::vector<int> GroupRaysByTrunk(const VerticalOptions& o,
                                   const std::vector<Eigen::Vector2d>& origins,
-                                  const std::vector<Eigen::Vector2d>& directions);
+                                  const std::vector<Eigen::Vector2d>& directions,
+                                  const std::vector<int>& views);
 
 }  // namespace stemmap::track

@@ -90,12 +90,34 @@ TEST(Vertical, RaysThroughOneTrunkFormOneGroup) {
   }
   origins.emplace_back(1, 0);
   directions.emplace_back(0, -1);
-  const std::vector<int> g = GroupRaysByTrunk({}, origins, directions);
+  std::vector<int> views(origins.size());
+  for (size_t i = 0; i < views.size(); ++i) views[i] = static_cast<int>(i);
+  const std::vector<int> g = GroupRaysByTrunk({}, origins, directions, views);
   for (int i = 1; i < 7; ++i) EXPECT_EQ(g[i], g[0]);
   for (int i = 8; i < 14; ++i) EXPECT_EQ(g[i], g[7]);
   EXPECT_NE(g[0], g[7]);
   EXPECT_NE(g[14], g[0]);
   EXPECT_NE(g[14], g[7]);
+}
+
+// Every ray of a view starts at its camera, so many edges in one view meet just in front of it;
+// a trunk is where rays of several views meet. Fans of rays from four views a quarter turn apart,
+// toward things each view alone sees: no group.
+TEST(Vertical, RaysOfOneViewDoNotMakeATrunk) {
+  std::vector<Eigen::Vector2d> origins, directions;
+  std::vector<int> views;
+  for (int k = 0; k < 4; ++k) {
+    const double phi = k * M_PI / 2;
+    for (int i = 0; i < 40; ++i) {
+      const double a = phi + (-25.0 + 50.0 * i / 39) * M_PI / 180;
+      origins.emplace_back(std::cos(phi), std::sin(phi));
+      directions.emplace_back(std::cos(a), std::sin(a));
+      views.push_back(k);
+    }
+  }
+  std::vector<int> g = GroupRaysByTrunk({}, origins, directions, views);
+  std::ranges::sort(g);
+  EXPECT_EQ(std::ranges::unique(g).begin(), g.end());  // every ray its own group
 }
 
 // Vertical trunks seen from cameras on a circle whose axis is tilted 1° from the vertical: the
