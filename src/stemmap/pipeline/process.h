@@ -116,6 +116,10 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
 void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
                           std::vector<Eigen::Vector3d>* occluders);
 
+// Whether `centre` (plot frame) lies straight behind one of the `nearer` stems seen from the plot
+// centre: farther than its far side and within its angular width.
+bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vector2d& centre);
+
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
 // method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution
 // (blurred in place), or empty to use `bgr` at the working resolution.

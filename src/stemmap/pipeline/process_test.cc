@@ -53,6 +53,17 @@ TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
   EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
 }
 
+// natural-5's smear: a 14.4-cm stem at 5.7 m, and a part 0.7 m behind it on nearly its bearing.
+TEST(InShadowOfNearerStem, APointStraightBehindAListedStem) {
+  const std::vector<stems::Stem> nearer = {Fitted(-2.70, 5.04, 0.144, 0.0)};
+  EXPECT_TRUE(InShadowOfNearerStem(nearer, {-2.96, 5.66}));
+  // Beside its width seen from the centre, in front of it, or within it: no shadow.
+  EXPECT_FALSE(InShadowOfNearerStem(nearer, {-2.52, 5.83}));
+  EXPECT_FALSE(InShadowOfNearerStem(nearer, {-1.35, 2.52}));
+  EXPECT_FALSE(InShadowOfNearerStem(nearer, {-2.72, 5.08}));
+  EXPECT_FALSE(InShadowOfNearerStem({}, {-2.96, 5.66}));
+}
+
 TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
   // A 27.8-cm stem, and a 17.8-cm fit that moved 0.47 m from its points to touch it; a third
   // stem 0.46 m from the first, and a far one that moved as much, stay.

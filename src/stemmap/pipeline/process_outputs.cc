@@ -1,0 +1,99 @@
+// The outputs of `process` that describe the tree list: plot figures, trees.csv,
+// stems_detail.csv and the terminal table.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <string>
+
+#include "stemmap/core/io.h"
+#include "stemmap/pipeline/process.h"  // IWYU pragma: associated
+
+namespace stemmap::pipeline {
+
+PlotFigures ComputePlotFigures(const std::vector<stems::Stem>& stems, double plot_radius_m,
+                               double min_dbh_cm) {
+  PlotFigures f;
+  const double area_ha = M_PI * plot_radius_m * plot_radius_m / 1e4;
+  double sum_ba = 0, sum_d2 = 0;
+  for (const stems::Stem& s : stems) {
+    const double dbh_cm = 100 * s.dbh_m;
+    if (s.centre_xy.norm() > plot_radius_m || dbh_cm < min_dbh_cm) continue;
+    ++f.stems;
+    sum_ba += M_PI * std::pow(s.dbh_m / 2, 2);
+    sum_d2 += dbh_cm * dbh_cm;
+  }
+  f.stems_per_ha = f.stems / area_ha;
+  f.basal_area_m2_per_ha = sum_ba / area_ha;
+  f.qmd_cm = f.stems > 0 ? std::sqrt(sum_d2 / f.stems) : 0.0;
+  return f;
+}
+
+nlohmann::json PlotSummaryJson(const PlotFigures& figures, int listed_stems, double plot_radius_m,
+                               double min_dbh_cm) {
+  nlohmann::json warnings = nlohmann::json::array();
+  if (listed_stems == 0) {
+    warnings.push_back(
+        fmt::format("no stem of {:.0f} cm or more found, so the plot figures are empty: does the "
+                    "video show the trunks at breast height?",
+                    min_dbh_cm));
+  } else if (figures.stems == 0) {
+    warnings.push_back(fmt::format("no stem found within the {:.1f}-m plot radius", plot_radius_m));
+  }
+  return {{"radius_m", plot_radius_m},
+          {"min_dbh_cm", min_dbh_cm},
+          {"stems", figures.stems},
+          {"stems_per_ha", figures.stems_per_ha},
+          {"basal_area_m2_per_ha", figures.basal_area_m2_per_ha},
+          {"qmd_cm", figures.qmd_cm},
+          {"warnings", warnings}};
+}
+
+void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::Stem>& stems,
+                   double breast_height_m, double plot_radius_m) {
+  std::string s = "tree_id,x_m,y_m,z_m,dbh_cm,dbh_sd_cm,distance_m,azimuth_deg,n_views,flags\n";
+  int id = 0;
+  for (const stems::Stem& t : stems) {
+    const double d = t.centre_xy.norm();
+    double az = std::atan2(t.centre_xy.y(), t.centre_xy.x()) * 180.0 / M_PI;
+    if (az < 0) az += 360.0;
+    std::vector<std::string> flags = t.flags;
+    if (std::abs(d - plot_radius_m) < 0.5) flags.push_back("plot_edge");
+    s += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.1f},{:.1f},{:.2f},{:.1f},{},{}\n", ++id,
+                     t.centre_xy.x(), t.centre_xy.y(), t.ground_z_m + breast_height_m,
+                     100 * t.dbh_m, 100 * t.dbh_sd_m, d, az, t.n_views, fmt::join(flags, ";"));
+  }
+  WriteFileAtomic(path, s);
+}
+
+void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems::Stem>& stems) {
+  std::string s =
+      "tree_id,x_m,y_m,dbh_tangent_cm,dbh_tangent_sd_cm,dbh_slice_cm,dbh_circle_cm,n_views,"
+      "arc_deg,lean_deg,pass_through,n_points\n";
+  int id = 0;
+  for (const stems::Stem& t : stems) {
+    s += fmt::format("{},{:.3f},{:.3f},{:.2f},{:.2f},{:.2f},{:.2f},{},{:.1f},{:.1f},{:.2f},{}\n",
+                     ++id, t.centre_xy.x(), t.centre_xy.y(), 100 * t.dbh_tangent_m,
+                     100 * t.dbh_tangent_sd_m, 100 * t.dbh_slice_m, 100 * t.dbh_circle_m, t.n_views,
+                     t.arc_deg, t.lean_deg, t.pass_through, t.n_points);
+  }
+  WriteFileAtomic(path, s);
+}
+
+std::string ProcessResult::Table() const {
+  std::string s = fmt::format("{:>4} {:>8} {:>8} {:>8} {:>8} {:>6}  {}\n", "tree", "dist m",
+                              "az deg", "DBH cm", "SD cm", "views", "flags");
+  int id = 0;
+  for (const stems::Stem& t : stems) {
+    double az = std::atan2(t.centre_xy.y(), t.centre_xy.x()) * 180.0 / M_PI;
+    if (az < 0) az += 360.0;
+    s += fmt::format("{:>4} {:>8.2f} {:>8.1f} {:>8.1f} {:>8.1f} {:>6}  {}\n", ++id,
+                     t.centre_xy.norm(), az, 100 * t.dbh_m, 100 * t.dbh_sd_m, t.n_views,
+                     fmt::join(t.flags, ";"));
+  }
+  s += fmt::format(
+      "{} stems in the plot: {:.0f} stems/ha, basal area {:.1f} m²/ha, QMD {:.1f} cm\n",
+      figures.stems, figures.stems_per_ha, figures.basal_area_m2_per_ha, figures.qmd_cm);
+  return s;
+}
+
+}  // namespace stemmap::pipeline
