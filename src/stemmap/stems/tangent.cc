@@ -7,6 +7,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <opencv2/imgproc.hpp>
 
 #include "stemmap/stems/silhouette.h"
@@ -177,6 +178,7 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     for (int k = 0; k < n_views; ++k) per_view[k] = MeasureView(o, v, c, r, breast_z, k);
     std::vector<Eigen::Vector2d> normals, origins;
     std::vector<double> headings;
+    std::vector<TangentFit::Ray> silhouettes;
     int views = 0, tried = 0, hidden_sides = 0, two_sided = 0;
     std::array<int, 2> side_rays = {0, 0};
     for (int k = 0; k < n_views; ++k) {
@@ -192,6 +194,7 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
             centre0.x(), centre0.y(), r_start, round, k, (*v.keyframes)[k].t_s, s, w.x[s], w.y);
         normals.push_back(w.normal[s]);
         origins.push_back(w.origin);
+        silhouettes.push_back({k, s, w.normal[s], w.origin, w.heading});
         ++side_rays[s];
       }
       if (w.used() == 2) ++two_sided;
@@ -246,6 +249,7 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     fit.hidden_sides = hidden_sides;
     fit.tried_views = tried;
     fit.two_sided_views = two_sided;
+    fit.silhouettes = std::move(silhouettes);
     if (!headings.empty()) {
       const auto [lo, hi] = std::minmax_element(headings.begin(), headings.end());
       fit.arc_deg = (*hi - *lo) * 180.0 / M_PI;
@@ -256,11 +260,102 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
 
 }  // namespace
 
+// One circle for the silhouettes of every start (each once), robustly: it keeps the rays tangent
+// to one circle, whichever start found them. Fills `pooled` from `chosen` with that circle and the
+// silhouettes it keeps.
+bool FitPooledSilhouettes(const TangentOptions& o, const std::vector<const TangentFit*>& fits,
+                          const TangentFit& chosen, TangentFit* pooled) {
+  std::vector<TangentFit::Ray> rays;
+  for (const TangentFit* f : fits) {
+    for (const TangentFit::Ray& r : f->silhouettes) {
+      const bool seen = std::ranges::any_of(rays, [&](const TangentFit::Ray& q) {
+        return q.keyframe == r.keyframe && q.side == r.side && (q.normal - r.normal).norm() < 1e-9;
+      });
+      if (!seen) rays.push_back(r);
+    }
+  }
+  std::vector<Eigen::Vector2d> normals, origins;
+  for (const TangentFit::Ray& r : rays) normals.push_back(r.normal), origins.push_back(r.origin);
+  // Each fit's circle, reweighted (Cauchy) over the pooled rays from it: the pooled rays hold
+  // several circles' worth of silhouettes, and one fitted to them all from their plain mean
+  // settles between those. The circle tangent to the most rays wins.
+  const double cauchy_m = 2.0 * o.huber_m;
+  Eigen::Vector3d best = Eigen::Vector3d::Zero();
+  int best_inliers = -1;
+  for (const TangentFit* f : fits) {
+    Eigen::Vector3d x(f->centre.x(), f->centre.y(), f->radius_m);
+    for (int it = 0; it < 20; ++it) {
+      Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+      for (size_t i = 0; i < rays.size(); ++i) {
+        const double e = normals[i].dot(x.head<2>() - origins[i]) - x.z();
+        const double w = 1.0 / (1.0 + (e / cauchy_m) * (e / cauchy_m));
+        const Eigen::Vector3d a(normals[i].x(), normals[i].y(), -1.0);
+        ata += w * a * a.transpose();
+        atb += w * a * normals[i].dot(origins[i]);
+      }
+      if (std::abs(ata.determinant()) < 1e-12) break;
+      x = ata.ldlt().solve(atb);
+    }
+    if (!x.allFinite() || x.z() <= 0) continue;
+    int inliers = 0;
+    for (size_t i = 0; i < rays.size(); ++i) {
+      inliers += std::abs(normals[i].dot(x.head<2>() - origins[i]) - x.z()) <= 2 * o.huber_m;
+    }
+    if (inliers > best_inliers) best = x, best_inliers = inliers;
+  }
+  if (best_inliers < o.min_rays) return false;
+  // The circle and its spread from the rays tangent to it.
+  std::vector<Eigen::Vector2d> in_normals, in_origins;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    if (std::abs(normals[i].dot(best.head<2>() - origins[i]) - best.z()) <= 2 * o.huber_m) {
+      in_normals.push_back(normals[i]);
+      in_origins.push_back(origins[i]);
+    }
+  }
+  Eigen::Vector2d c;
+  double r, r_sd, rms;
+  const CentrePrior prior{best.head<2>(), o.prior_share_of_distance * best.head<2>().norm() + 0.05,
+                          o.huber_m};
+  if (!SolveTangentCircle(in_normals, in_origins, o.huber_m, &c, &r, &r_sd, &rms, nullptr,
+                          &prior)) {
+    return false;
+  }
+  *pooled = chosen;
+  pooled->centre = c;
+  pooled->radius_m = r;
+  pooled->radius_sd_m = r_sd;
+  pooled->silhouettes.clear();
+  std::map<int, int> sides_of_view;  // bit 0 left, bit 1 right
+  std::vector<double> headings;
+  double sq = 0;
+  for (size_t i = 0; i < rays.size(); ++i) {
+    const double e = normals[i].dot(c - origins[i]) - r;
+    if (std::abs(e) > 2 * o.huber_m) continue;
+    sq += e * e;
+    pooled->silhouettes.push_back(rays[i]);
+    sides_of_view[rays[i].keyframe] |= 1 << rays[i].side;
+    headings.push_back(headings.empty()
+                           ? rays[i].heading
+                           : headings[0] + std::remainder(rays[i].heading - headings[0], 2 * M_PI));
+  }
+  pooled->rays = static_cast<int>(pooled->silhouettes.size());
+  if (pooled->rays < o.min_rays) return false;
+  pooled->rms_m = std::sqrt(sq / pooled->rays);
+  pooled->views = static_cast<int>(sides_of_view.size());
+  pooled->two_sided_views = static_cast<int>(
+      std::ranges::count_if(sides_of_view, [](const auto& kv) { return kv.second == 3; }));
+  const auto [lo, hi] = std::minmax_element(headings.begin(), headings.end());
+  pooled->arc_deg = (*hi - *lo) * 180.0 / M_PI;
+  return true;
+}
+
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z) {
   TangentFit fit = FitTangentRaysFrom(o, v, centre0, radius0, radius0, breast_z);
   // Most views two-sided: the start was right.
   if (fit.ok && 2 * fit.two_sided_views >= fit.tried_views) return fit;
+  std::vector<TangentFit> tried = {fit};
   // A narrower start must find both sides in several views, tangent to one circle to about a
   // pixel, and no narrower than a share of the cloud's width: inside a stem, bark and the border
   // of sun and shade give loose pairs of edges too.
@@ -274,23 +369,45 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     if (trusted && (!fit.ok || 2 * other.two_sided_views >= 3 * fit.two_sided_views)) fit = other;
   };
   for (double scale : o.narrow_start_scales) {
-    take_if_clearly_better(FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z));
+    tried.push_back(FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z));
+    take_if_clearly_better(tried.back());
   }
   const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
   for (double shift : o.sideways_start_shifts) {
     for (double side : {-1.0, 1.0}) {
       const Eigen::Vector2d moved = centre0 + side * shift * radius0 * across;
-      const TangentFit other = FitTangentRaysFrom(o, v, moved, radius0, radius0, breast_z);
+      tried.push_back(FitTangentRaysFrom(o, v, moved, radius0, radius0, breast_z));
       // Away from where the cloud put it, only a stem seen whole in most views stands.
+      const TangentFit& other = tried.back();
       if (2 * other.two_sided_views >= other.tried_views) take_if_clearly_better(other);
     }
   }
   for (double scale : o.wide_start_scales) {
-    const TangentFit other = FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z);
+    tried.push_back(FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z));
+    const TangentFit& other = tried.back();
     if (other.ok && (!fit.ok || other.two_sided_views > fit.two_sided_views ||
                      (other.two_sided_views == fit.two_sided_views && other.rays > fit.rays))) {
       fit = other;
     }
+  }
+  if (!fit.ok || o.pooled_min_extra_rays < 0) return fit;
+  std::vector<const TangentFit*> ok_fits;
+  for (const TangentFit& t : tried) {
+    if (t.ok) ok_fits.push_back(&t);
+  }
+  TangentFit pooled;
+  if (!FitPooledSilhouettes(o, ok_fits, fit, &pooled)) return fit;
+  const bool in_place =
+      std::abs(across.dot(pooled.centre - fit.centre)) < std::max(o.max_sideways_m, fit.radius_m) &&
+      pooled.radius_m > o.narrow_min_share * radius0 &&
+      pooled.radius_m < o.WidestFitScale() * radius0;
+  if (in_place && pooled.rays >= fit.rays + o.pooled_min_extra_rays &&
+      pooled.two_sided_views >= fit.two_sided_views &&
+      pooled.rms_m < std::max(fit.rms_m, o.narrow_max_rms_px * px_m)) {
+    spdlog::debug("tangent: pooled silhouettes ({:.2f}, {:.2f}) r {:.3f}: {} rays, {} two-sided",
+                  pooled.centre.x(), pooled.centre.y(), pooled.radius_m, pooled.rays,
+                  pooled.two_sided_views);
+    return pooled;
   }
   return fit;
 }

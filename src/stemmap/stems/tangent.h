@@ -54,6 +54,11 @@ struct TangentOptions {
   // a width to the side, where the start's edges are its own and its neighbour's. Such a fit must
   // be two-sided in most views and is held to the narrower start's bounds.
   std::vector<double> sideways_start_shifts = {1.0, 2.0};
+  // Each start finds some silhouettes right and some on what stands beside the stem; the
+  // silhouettes of all starts are pooled and one circle fitted robustly. That circle replaces the
+  // chosen start's when it is tangent to at least this many more of them, to within the narrower
+  // start's rms.
+  int pooled_min_extra_rays = 3;
   // The largest radius, as a multiple of radius0, that a fit from these starts may reach:
   // a little beyond the widest (a fit grows from its start), and 2.5 without wide starts.
   double WidestFitScale() const {
@@ -97,7 +102,21 @@ struct TangentFit {
   int hidden_sides = 0;     // silhouette sides (two a view) left out beside a nearer stem
   int two_sided_views = 0;  // views that gave both silhouettes
   double arc_deg = 0.0;     // spread of the viewing directions used
+  // The silhouettes of the last round: one ray each (keyframe, side 0 left / 1 right, the ray's
+  // normal toward the stem, the camera centre, the heading from the stem to the camera).
+  struct Ray {
+    int keyframe = 0, side = 0;
+    Eigen::Vector2d normal, origin;
+    double heading = 0;
+  };
+  std::vector<Ray> silhouettes;
 };
+
+// One circle for the silhouettes of several fits of one stem (each silhouette once): reweighted
+// from each fit's circle in turn, the circle tangent to the most silhouettes. `pooled` is `chosen`
+// with that circle, its spread and the silhouettes on it; false when fewer than min_rays are.
+bool FitPooledSilhouettes(const TangentOptions& o, const std::vector<const TangentFit*>& fits,
+                          const TangentFit& chosen, TangentFit* pooled);
 
 // Blurs the keyframe images in place as `o.blur_sigma_px` says (before FitTangentRays).
 void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);

@@ -24,6 +24,7 @@ void to_json(nlohmann::json& j, const TangentOptions& o) {
        {"narrow_max_rms_px", o.narrow_max_rms_px},
        {"narrow_min_share", o.narrow_min_share},
        {"sideways_start_shifts", o.sideways_start_shifts},
+       {"pooled_min_extra_rays", o.pooled_min_extra_rays},
        {"refine_on_brightness", o.refine_on_brightness},
        {"blur_sigma_px", o.blur_sigma_px}};
 }

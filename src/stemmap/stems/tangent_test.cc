@@ -395,6 +395,49 @@ TEST(Tangent, FitsAThinStemTheCloudPlacedAWidthToOneSide) {
   }
 }
 
+// Rays tangent to the circle (centre, r) from cameras on the arm, one per side and view
+// (side 0: the silhouette at the stem's left seen from the camera).
+std::vector<TangentFit::Ray> TangentRays(const Eigen::Vector2d& centre, double r, int first,
+                                         int last, int side) {
+  std::vector<TangentFit::Ray> rays;
+  for (int k = first; k <= last; ++k) {
+    const double th = std::atan2(centre.y(), centre.x()) + (k - 15) * M_PI / 90;
+    const Eigen::Vector2d cam(std::cos(th), std::sin(th));
+    const Eigen::Vector2d to = centre - cam;
+    const double a = std::asin(r / to.norm()) * (side == 0 ? 1 : -1);
+    const Eigen::Vector2d dir = Eigen::Rotation2Dd(a) * to.normalized();
+    Eigen::Vector2d n(-dir.y(), dir.x());
+    if (n.dot(to) < 0) n = -n;
+    rays.push_back({k, side, n, cam, std::atan2(-to.y(), -to.x())});
+  }
+  return rays;
+}
+
+// The start with the most two-sided views caught something beside the stem's left in its last
+// views and fitted a wider circle; the narrower start found the stem's own silhouettes in most
+// views but was passed over. Pooled, the circle tangent to the most silhouettes is the stem.
+TEST(Tangent, PooledSilhouettesGiveTheCircleMostOfThemTouch) {
+  const Eigen::Vector2d centre(8.0, 1.0);
+  const double r = 0.1;
+  TangentFit narrow, wide;
+  narrow.ok = wide.ok = true;
+  narrow.silhouettes = TangentRays(centre, r, 0, 24, 0);
+  for (const auto& ray : TangentRays(centre, r, 10, 20, 1)) narrow.silhouettes.push_back(ray);
+  narrow.centre = centre;
+  narrow.radius_m = r;
+  wide.silhouettes = TangentRays(centre, 1.5 * r, 18, 30, 0);
+  for (const auto& ray : TangentRays(centre, 1.5 * r, 16, 30, 1)) wide.silhouettes.push_back(ray);
+  wide.centre = centre;
+  wide.radius_m = 1.5 * r;
+  TangentFit pooled;
+  ASSERT_TRUE(FitPooledSilhouettes(TangentOptions(), {&narrow, &wide}, wide, &pooled));
+  EXPECT_NEAR(pooled.radius_m, r, 0.001);
+  EXPECT_LT((pooled.centre - centre).norm(), 0.01);
+  EXPECT_EQ(pooled.rays, 25 + 11);
+  EXPECT_EQ(pooled.two_sided_views, 11);  // views 10-20
+  EXPECT_EQ(pooled.views, 25);
+}
+
 TEST(Tangent, DegenerateSystems) {
   Eigen::Vector2d c;
   double r, sd, rms;
