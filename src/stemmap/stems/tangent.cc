@@ -21,6 +21,21 @@ void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray) {
   }
 }
 
+namespace {
+
+// Adds the rays' rows n . p - r = n . c (weight w_i) to the normal equations of (px, py, r).
+void AddTangentRows(const std::vector<Eigen::Vector2d>& normals,
+                    const std::vector<Eigen::Vector2d>& origins, const std::vector<double>& w,
+                    Eigen::Matrix3d* ata, Eigen::Vector3d* atb) {
+  for (size_t i = 0; i < normals.size(); ++i) {
+    const Eigen::Vector3d a(normals[i].x(), normals[i].y(), -1.0);
+    *ata += w[i] * a * a.transpose();
+    *atb += w[i] * a * normals[i].dot(origins[i]);
+  }
+}
+
+}  // namespace
+
 bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
                         const std::vector<Eigen::Vector2d>& origins, double huber_m,
                         Eigen::Vector2d* centre, double* radius, double* radius_sd, double* rms_m,
@@ -51,11 +66,7 @@ bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
   for (int it = 0; it < kIterations; ++it) {
     ata = prior_ata;
     Eigen::Vector3d atb = prior_atb;
-    for (size_t i = 0; i < n; ++i) {
-      const Eigen::Vector3d a(normals[i].x(), normals[i].y(), -1.0);
-      ata += w[i] * a * a.transpose();
-      atb += w[i] * a * normals[i].dot(origins[i]);
-    }
+    AddTangentRows(normals, origins, w, &ata, &atb);
     if (std::abs(ata.determinant()) < 1e-12) return false;
     x = ata.ldlt().solve(atb);
     for (size_t i = 0; i < n; ++i) {
@@ -285,15 +296,14 @@ bool FitPooledSilhouettes(const TangentOptions& o, const std::vector<const Tange
   for (const TangentFit* f : fits) {
     Eigen::Vector3d x(f->centre.x(), f->centre.y(), f->radius_m);
     for (int it = 0; it < 20; ++it) {
-      Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+      std::vector<double> w(rays.size());
       for (size_t i = 0; i < rays.size(); ++i) {
         const double e = normals[i].dot(x.head<2>() - origins[i]) - x.z();
-        const double w = 1.0 / (1.0 + (e / cauchy_m) * (e / cauchy_m));
-        const Eigen::Vector3d a(normals[i].x(), normals[i].y(), -1.0);
-        ata += w * a * a.transpose();
-        atb += w * a * normals[i].dot(origins[i]);
+        w[i] = 1.0 / (1.0 + (e / cauchy_m) * (e / cauchy_m));
       }
+      Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+      AddTangentRows(normals, origins, w, &ata, &atb);
       if (std::abs(ata.determinant()) < 1e-12) break;
       x = ata.ldlt().solve(atb);
     }
