@@ -24,6 +24,8 @@ class ValueNoise {
   double Fbm2(double x, double y, int octaves, double gain = 0.5) const;
   double Fbm3(double x, double y, double z, int octaves, double gain = 0.5) const;
   double Fbm2PeriodicX(double x, double y, int period, int octaves, double gain = 0.5) const;
+  // No Noise2/Noise3 value exceeds this (they interpolate between lattice values).
+  double MaxValue() const { return max_value_; }
 
  private:
   int Hash(int ix) const { return perm_[ix & (kPeriod - 1)]; }
@@ -44,6 +46,7 @@ class ValueNoise {
 
   std::array<uint16_t, kPeriod> perm_;
   std::array<float, kPeriod> values_;
+  double max_value_ = 1.0;
 };
 
 // Per-pixel hot paths: defined here so they inline into the renderer.

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "stemmap/core/rng.h"
 
 namespace stemmap {
@@ -34,6 +36,19 @@ TEST(ValueNoise, PeriodicInX) {
     EXPECT_NEAR(n.Noise2PeriodicX(0.3, y, 7), n.Noise2PeriodicX(7.3, y, 7), 1e-12);
     EXPECT_NEAR(n.Fbm2PeriodicX(6.9999999, y, 7, 3), n.Fbm2PeriodicX(-1e-7, y, 7, 3), 1e-5);
   }
+}
+
+// The renderer skips reading the noise where even its largest value could not matter.
+TEST(ValueNoise, NeverExceedsItsLargestLatticeValue) {
+  ValueNoise n(11);
+  double largest = -1.0;
+  for (int i = 0; i < 20000; ++i) {
+    const double x = i * 0.0371, y = i * 0.0173, z = i * 0.0291;
+    largest = std::max({largest, n.Noise2(x, y), n.Noise3(x, y, z)});
+  }
+  EXPECT_LE(largest, n.MaxValue());
+  EXPECT_GT(largest, n.MaxValue() - 0.05);  // the bound is the lattice's, not a loose 1
+  EXPECT_LT(n.MaxValue(), 1.0);
 }
 
 TEST(Rng, SameSeedSameStreamAndSaneMoments) {

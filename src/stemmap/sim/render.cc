@@ -319,13 +319,19 @@ bool Renderer::IntersectShrub(int k, const Eigen::Vector3d& o, const Eigen::Vect
   // Lobed outline: the leaf threshold varies across the shrub at the scale of branches.
   const Eigen::Vector3d pe = o + t0 * d + off;
   const double lobes = 0.5 * leaf.Noise3(pe.x() * 2.5 + 50.0, pe.y() * 2.5, pe.z() * 2.5);
+  // The leaf noise never exceeds its largest lattice value, so where even that would leave v at
+  // or under the threshold the noise need not be read (a few 1e-9 spare for rounding).
+  const double centre_needed = th + 0.2 - lobes - leaf.MaxValue() + 1e-9;
+  const double q_min2 = std::max(0.0, c + 1.0 - b * b / a);  // closest approach, scaled frame
+  if (0.6 * (1.0 - std::sqrt(q_min2)) <= centre_needed) return false;
   for (double t = t0; t < t1; t += step) {
     const Eigen::Vector3d pw = o + t * d;
     const Eigen::Vector3d q = (pw - sh.centre).cwiseQuotient(sh.radii_m);
+    const double centre = 0.6 * (1.0 - q.norm());
+    if (centre <= centre_needed) continue;
     const Eigen::Vector3d p = pw + off;
     // Denser towards the centre, with leaf-sized holes.
-    const double v = leaf.Noise3(p.x() * 18.0, p.y() * 18.0, p.z() * 18.0) +
-                     0.6 * (1.0 - q.norm()) + lobes - 0.2;
+    const double v = leaf.Noise3(p.x() * 18.0, p.y() * 18.0, p.z() * 18.0) + centre + lobes - 0.2;
     if (v > th) {
       *t_hit = t;
       const double h = 0.02;
