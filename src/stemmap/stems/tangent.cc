@@ -9,6 +9,7 @@
 #include <limits>
 #include <map>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "stemmap/stems/silhouette.h"
 
@@ -360,6 +361,35 @@ bool FitPooledSilhouettes(const TangentOptions& o, const std::vector<const Tange
   return true;
 }
 
+std::optional<TangentFit> FitSeenInFewViews(const TangentOptions& o,
+                                            const std::vector<const TangentFit*>& ok_fits,
+                                            const Eigen::Vector2d& centre0, double radius0,
+                                            double px_m) {
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
+  const double widest_shift =
+      o.sideways_start_shifts.empty() ? 0.0 : *std::ranges::max_element(o.sideways_start_shifts);
+  auto stands = [&](const TangentFit& f) {
+    return f.ok && f.two_sided_views >= o.few_views_min_two_sided &&
+           f.rms_m < o.narrow_max_rms_px * px_m && f.radius_m > o.few_views_min_share * radius0 &&
+           f.radius_m < o.WidestFitScale() * radius0 &&
+           std::abs(across.dot(f.centre - centre0)) <
+               std::max(o.max_sideways_m, (widest_shift + 1.0) * radius0);
+  };
+  const TangentFit* best = nullptr;
+  for (const TangentFit* f : ok_fits) {
+    if (!stands(*f)) continue;
+    if (!best || f->two_sided_views > best->two_sided_views ||
+        (f->two_sided_views == best->two_sided_views && f->rays > best->rays)) {
+      best = f;
+    }
+  }
+  if (!best) return std::nullopt;
+  spdlog::debug("tangent: seen in few views ({:.2f}, {:.2f}) r {:.3f}: {} rays, {} two-sided",
+                best->centre.x(), best->centre.y(), best->radius_m, best->rays,
+                best->two_sided_views);
+  return *best;
+}
+
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z) {
   TangentFit fit = FitTangentRaysFrom(o, v, centre0, radius0, radius0, breast_z);
@@ -400,11 +430,18 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
       fit = other;
     }
   }
-  if (!fit.ok || o.pooled_min_extra_rays < 0) return fit;
   std::vector<const TangentFit*> ok_fits;
   for (const TangentFit& t : tried) {
     if (t.ok) ok_fits.push_back(&t);
   }
+  const int min_two_sided = o.few_views_min_two_sided;
+  if (min_two_sided > 0 && !fit.ok) {
+    if (const std::optional<TangentFit> few =
+            FitSeenInFewViews(o, ok_fits, centre0, radius0, px_m)) {
+      return *few;
+    }
+  }
+  if (!fit.ok || o.pooled_min_extra_rays < 0) return fit;
   TangentFit pooled;
   if (!FitPooledSilhouettes(o, ok_fits, fit, &pooled)) return fit;
   const bool in_place =

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 #include "stemmap/camera/camera.h"
@@ -59,6 +60,13 @@ struct TangentOptions {
   // chosen start's when it is tangent to at least this many more of them, to within the narrower
   // start's rms.
   int pooled_min_extra_rays = 3;
+  // A stem mostly hidden behind a nearer one shows both sides in only a few views. When no start
+  // gave a fit with both sides in at least this many views, the start whose fit has the most
+  // (at least this many, on one circle to within the narrower start's rms) stands, pooled with
+  // the other starts' silhouettes. 0: off. Such a fit is no narrower than this share of the
+  // cloud's width: the stereo pairs see a sliver of a hidden stem, never more than all of it.
+  int few_views_min_two_sided = 3;
+  double few_views_min_share = 0.9;
   // The largest radius, as a multiple of radius0, that a fit from these starts may reach:
   // a little beyond the widest (a fit grows from its start), and 2.5 without wide starts.
   double WidestFitScale() const {
@@ -117,6 +125,17 @@ struct TangentFit {
 // with that circle, its spread and the silhouettes on it; false when fewer than min_rays are.
 bool FitPooledSilhouettes(const TangentOptions& o, const std::vector<const TangentFit*>& fits,
                           const TangentFit& chosen, TangentFit* pooled);
+
+// For a stem mostly hidden behind a nearer one: among the fits of all starts, the one with both
+// sides in the most views (at least few_views_min_two_sided) on one circle to within the narrower
+// start's rms (px_m: metres a pixel spans at the stem), no narrower than few_views_min_share of
+// radius0 and within the sideways starts' reach (its own silhouettes only: pooled with the
+// others', a short arc's poorly held depth lets a far-off pair of edges drag it). None when no
+// start gives one.
+std::optional<TangentFit> FitSeenInFewViews(const TangentOptions& o,
+                                            const std::vector<const TangentFit*>& ok_fits,
+                                            const Eigen::Vector2d& centre0, double radius0,
+                                            double px_m);
 
 // Blurs the keyframe images in place as `o.blur_sigma_px` says (before FitTangentRays).
 void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);

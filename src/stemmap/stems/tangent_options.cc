@@ -25,6 +25,8 @@ void to_json(nlohmann::json& j, const TangentOptions& o) {
        {"narrow_min_share", o.narrow_min_share},
        {"sideways_start_shifts", o.sideways_start_shifts},
        {"pooled_min_extra_rays", o.pooled_min_extra_rays},
+       {"few_views_min_two_sided", o.few_views_min_two_sided},
+       {"few_views_min_share", o.few_views_min_share},
        {"refine_on_brightness", o.refine_on_brightness},
        {"blur_sigma_px", o.blur_sigma_px}};
 }

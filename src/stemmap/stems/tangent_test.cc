@@ -438,6 +438,46 @@ TEST(Tangent, PooledSilhouettesGiveTheCircleMostOfThemTouch) {
   EXPECT_EQ(pooled.views, 25);
 }
 
+// A thin stem behind a nearer one: one start found both its sides in four views at the end of
+// the arc where it shows; another, from the cloud's sliver, caught a pair of bark furrows inside
+// a wider circle; a third only loose edges. The first stands on its own rays; narrower than the
+// cloud's sliver, or with sides in too few views, it would not.
+TEST(Tangent, AStemSeenInFewViewsStandsOnItsTwoSidedViews) {
+  const Eigen::Vector2d centre(8.4, 0.4);
+  const double r = 0.055;
+  TangentFit seen, furrows, loose;
+  seen.ok = furrows.ok = loose.ok = true;
+  seen.silhouettes = TangentRays(centre, r, 0, 3, 0);
+  for (const auto& ray : TangentRays(centre, r, 0, 4, 1)) seen.silhouettes.push_back(ray);
+  seen.centre = centre;
+  seen.radius_m = r;
+  seen.rms_m = 0.002;
+  seen.rays = 9;
+  seen.two_sided_views = 4;
+  furrows = seen;
+  furrows.silhouettes = TangentRays(centre, 0.02, 20, 22, 0);
+  for (const auto& ray : TangentRays(centre, 0.02, 20, 22, 1)) furrows.silhouettes.push_back(ray);
+  furrows.radius_m = 0.02;
+  furrows.two_sided_views = 3;
+  loose = seen;
+  loose.rms_m = 0.02;
+  loose.two_sided_views = 6;
+  const TangentOptions o;
+  const double px_m = 0.0056;  // 8.4 m at 1500 px focal length
+  const std::optional<TangentFit> fit =
+      FitSeenInFewViews(o, {&furrows, &loose, &seen}, centre, 0.032, px_m);
+  ASSERT_TRUE(fit.has_value());
+  EXPECT_NEAR(fit->radius_m, r, 0.001);
+  EXPECT_LT((fit->centre - centre).norm(), 0.02);
+  EXPECT_EQ(fit->two_sided_views, 4);
+  EXPECT_EQ(fit->rays, 9);
+  // The sliver the cloud saw is wider than the fit: not a hidden stem.
+  EXPECT_FALSE(FitSeenInFewViews(o, {&furrows, &loose, &seen}, centre, 0.07, px_m).has_value());
+  TangentOptions stricter = o;
+  stricter.few_views_min_two_sided = 5;
+  EXPECT_FALSE(FitSeenInFewViews(stricter, {&furrows, &seen}, centre, 0.032, px_m).has_value());
+}
+
 TEST(Tangent, DegenerateSystems) {
   Eigen::Vector2d c;
   double r, sd, rms;
