@@ -205,7 +205,7 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
       if (!map->obs_valid[t][k]) continue;
       const Observation& ob = tracks[t].obs[k];
       const Eigen::Vector3d ray = camera.CamRayFromImage(ob.px);
-      problem.AddResidualBlock(PoseReprojectionError::Create(ray.head<2>(), camera.fx),
+      problem.AddResidualBlock(PoseReprojectionCost::Create(ray.head<2>(), camera.fx),
                                reprojection_loss, cams.pose(ob.keyframe),
                                map->point_world[t].data(), cams.focal());
       kf_used[ob.keyframe] = 1;

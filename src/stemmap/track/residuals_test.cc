@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 
 namespace stemmap::track {
@@ -118,6 +119,51 @@ TEST(Residuals, PoseBlockAdaptersMatchTheSplitResiduals) {
   EXPECT_EQ(a[0], b[0]);
   ExpectGradientsMatch<PoseReprojectionError, 2, 7, 3, 1>(
       PoseReprojectionError({0.1, -0.05}, 800.0), {pose, x.data(), &k});
+}
+
+// The hand-written derivatives against automatic differentiation of the same residual, for
+// poses around the circle, a quaternion a little off unit length (as between manifold steps),
+// and a point behind the camera.
+TEST(Residuals, AnalyticReprojectionMatchesAutomatic) {
+  const Eigen::Vector2d uv(0.1, -0.05);
+  ceres::AutoDiffCostFunction<PoseReprojectionError, 2, 7, 3, 1> automatic(
+      new PoseReprojectionError(uv, 800.0));
+  PoseReprojectionCost analytic(uv, 800.0);
+  int behind = 0;
+  struct Case {
+    double angle, norm;
+    Eigen::Vector3d x;
+  };
+  for (const Case& t : {Case{0.3, 1.0, {2.0, 1.0, 5.0}}, Case{-2.1, 1.0 + 1e-6, {-4.0, 3.0, 1.0}},
+                        Case{1.2, 1.0, {0.9, 0.2, -4.0}}}) {
+    const Eigen::Quaterniond q(
+        Eigen::AngleAxisd(t.angle, Eigen::Vector3d(0.2, 1.0, -0.1).normalized()));
+    double pose[7];
+    for (int i = 0; i < 4; ++i) pose[i] = q.coeffs()[i] * t.norm;
+    pose[4] = std::cos(t.angle), pose[5] = std::sin(t.angle), pose[6] = 0.01;
+    Eigen::Vector3d x = t.x;
+    double k = 1.02;
+    behind += (q * (x - Eigen::Vector3d(pose[4], pose[5], pose[6]))).z() < 0;
+    const double* params[] = {pose, x.data(), &k};
+    double ra[2], rb[2], ja[3][21], jb[3][21];
+    double* pa[] = {ja[0], ja[1], ja[2]};
+    double* pb[] = {jb[0], jb[1], jb[2]};
+    ASSERT_TRUE(automatic.Evaluate(params, ra, pa));
+    ASSERT_TRUE(analytic.Evaluate(params, rb, pb));
+    for (int r = 0; r < 2; ++r) EXPECT_NEAR(ra[r], rb[r], 1e-9 * std::max(1.0, std::abs(ra[r])));
+    const int sizes[] = {14, 6, 2};
+    for (int b = 0; b < 3; ++b) {
+      for (int i = 0; i < sizes[b]; ++i) {
+        EXPECT_NEAR(ja[b][i], jb[b][i], 1e-9 * std::max(1.0, std::abs(ja[b][i])))
+            << "block " << b << " entry " << i;
+      }
+    }
+    // Residuals alone, without Jacobians.
+    ASSERT_TRUE(analytic.Evaluate(params, rb, nullptr));
+    EXPECT_NEAR(ra[0], rb[0], 1e-9 * std::max(1.0, std::abs(ra[0])));
+  }
+  EXPECT_GE(behind, 1);  // both branches are checked
+  EXPECT_LT(behind, 3);
 }
 
 }  // namespace
