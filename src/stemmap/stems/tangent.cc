@@ -393,13 +393,32 @@ std::optional<TangentFit> FitSeenInFewViews(const TangentOptions& o,
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z) {
   TangentFit fit = FitTangentRaysFrom(o, v, centre0, radius0, radius0, breast_z);
-  // Most views two-sided: the start was right.
-  if (fit.ok && 2 * fit.two_sided_views >= fit.tried_views) return fit;
+  const double px_m = centre0.norm() / v.camera->fx;
+  // Most views two-sided: the start was right, unless a wider start settles on a wider circle
+  // as cleanly. Neighbours are compared through the fitted circle, so one too narrow leaves the
+  // bark beyond it misaligned, and its edges there hold it narrow; a circle too wide does not
+  // make edges outside the stem.
+  if (fit.ok && 2 * fit.two_sided_views >= fit.tried_views) {
+    if (o.recheck_wider_scale <= 0) return fit;
+    const TangentFit wider =
+        FitTangentRaysFrom(o, v, centre0, radius0, o.recheck_wider_scale * radius0, breast_z);
+    const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
+    const bool cleaner = wider.ok && 2 * wider.two_sided_views >= wider.tried_views &&
+                         wider.rms_m <= fit.rms_m &&
+                         wider.radius_m > o.recheck_min_gain * fit.radius_m &&
+                         wider.radius_m < o.WidestFitScale() * radius0 &&
+                         std::abs(across.dot(wider.centre - fit.centre)) < o.max_sideways_m;
+    if (cleaner) {
+      spdlog::debug("tangent: wider start ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm over r {:.3f}",
+                    wider.centre.x(), wider.centre.y(), wider.radius_m, 1000 * wider.rms_m,
+                    fit.radius_m);
+    }
+    return cleaner ? wider : fit;
+  }
   std::vector<TangentFit> tried = {fit};
   // A narrower start must find both sides in several views, tangent to one circle to about a
   // pixel, and no narrower than a share of the cloud's width: inside a stem, bark and the border
   // of sun and shade give loose pairs of edges too.
-  const double px_m = centre0.norm() / v.camera->fx;
   // Clearly more two-sided views than the fit so far (a few pairs also come from a sapling), both
   // sides on one circle to about a pixel.
   auto take_if_clearly_better = [&](const TangentFit& other) {

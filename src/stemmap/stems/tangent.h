@@ -45,6 +45,10 @@ struct TangentOptions {
   // that a nearer one hides, and its width is too small to find the far silhouette); the start
   // whose fit has the most two-sided views wins. Empty: only the given radius.
   std::vector<double> wide_start_scales = {1.6, 2.2};
+  // A fit two-sided in most views is checked against one from radius0 times this (0: not), which
+  // replaces it when as clean (two-sided in most views, rms no larger) and this much wider.
+  double recheck_wider_scale = 1.6;
+  double recheck_min_gain = 1.1;
   // And from these, below 1: the cloud merged the stem with what stands close beside it (a
   // sapling, a shrub), and a start that wide takes their gaps for the stem's inside.
   std::vector<double> narrow_start_scales = {0.5};

@@ -20,6 +20,8 @@ void to_json(nlohmann::json& j, const TangentOptions& o) {
        {"occluder_min_gap_m", o.occluder_min_gap_m},
        {"refits", o.refits},
        {"wide_start_scales", o.wide_start_scales},
+       {"recheck_wider_scale", o.recheck_wider_scale},
+       {"recheck_min_gain", o.recheck_min_gain},
        {"narrow_start_scales", o.narrow_start_scales},
        {"narrow_max_rms_px", o.narrow_max_rms_px},
        {"narrow_min_share", o.narrow_min_share},

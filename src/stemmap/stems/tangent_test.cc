@@ -478,6 +478,25 @@ TEST(Tangent, AStemSeenInFewViewsStandsOnItsTwoSidedViews) {
   EXPECT_FALSE(FitSeenInFewViews(stricter, {&furrows, &seen}, centre, 0.032, px_m).has_value());
 }
 
+// A near stem whose fit is right from the start: the wider start settles on the same circle, and
+// the check leaves the fit as it was (it replaces only a fit that a wider start beats cleanly).
+TEST(Tangent, AWiderStartLeavesARightFitAlone) {
+  const Eigen::Vector2d centre(2.7, 0.1);
+  const double radius = 0.074;
+  const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}}, true, true);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  TangentOptions o = TangentOptions().ForImageScale(640.0 / 960.0);
+  ASSERT_GT(o.recheck_wider_scale, 1.0);
+  const TangentFit fit = FitTangentRays(o, views, centre, 0.093, 1.37);
+  o.recheck_wider_scale = 0;
+  const TangentFit unchecked = FitTangentRays(o, views, centre, 0.093, 1.37);
+  ASSERT_TRUE(fit.ok);
+  EXPECT_GT(2 * fit.two_sided_views, fit.tried_views);
+  EXPECT_NEAR(fit.radius_m, radius, 0.003);
+  EXPECT_EQ(fit.radius_m, unchecked.radius_m);
+  EXPECT_EQ(fit.centre, unchecked.centre);
+}
+
 TEST(Tangent, DegenerateSystems) {
   Eigen::Vector2d c;
   double r, sd, rms;
