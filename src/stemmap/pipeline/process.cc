@@ -139,7 +139,7 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
   PartOutcome out;
   std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
   const double part_dbh_m = 2 * CloudRadius(part);
-  auto [verdict, s, clean] = refine(std::move(part));
+  auto [verdict, s, clean, whole] = refine(std::move(part));
   // A fit far narrower than a smeared part with several cores may be one of stems standing
   // one behind another: the cores decide, when two or more of them fit on their own.
   const bool narrow_in_wide = verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
@@ -156,18 +156,31 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
   const size_t before = kept->size();
   const double min_core_dbh_m =
       verdict == SilhouetteVerdict::kKeepCloud ? o.min_core_share * s.dbh_m : 0.0;
-  for (stems::Stem& core : cores) {
-    auto [core_verdict, c, core_clean] = refine(std::move(core));
-    if (core_verdict != SilhouetteVerdict::kUse || !core_clean || c.dbh_m < min_core_dbh_m) {
-      continue;
-    }
+  // Cores that overlap are one stem: the one with both sides in most views stands first.
+  std::vector<RefinedStem> refined;
+  for (stems::Stem& core : cores) refined.push_back(refine(std::move(core)));
+  std::ranges::stable_sort(
+      refined, [](const RefinedStem& a, const RefinedStem& b) { return a.whole && !b.whole; });
+  int whole_cores = 0;
+  for (RefinedStem& r : refined) {
+    stems::Stem& c = r.stem;
+    if (r.verdict != SilhouetteVerdict::kUse || !r.clean || c.dbh_m < min_core_dbh_m) continue;
     const bool overlaps = std::ranges::any_of(*kept, [&](const stems::Stem& k) {
       return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
     });
-    if (!overlaps) kept->push_back(std::move(c));
+    if (!overlaps) {
+      kept->push_back(std::move(c));
+      whole_cores += r.whole;
+    }
   }
   const int from_cores = static_cast<int>(kept->size() - before);
-  if (narrow_in_wide && from_cores < 2) {
+  spdlog::debug("stems: part ({:.2f}, {:.2f}) fit {:.3f} whole {}: {} of {} cores kept, {} whole",
+                s.centre_xy.x(), s.centre_xy.y(), s.dbh_m, whole, from_cores, cores.size(),
+                whole_cores);
+  // One core alone replaces the part's fit only when it shows both sides in most of its views
+  // and the part's fit does not: that fit caught what stands beside the stem.
+  const bool one_whole_core = from_cores == 1 && whole_cores == 1 && !whole;
+  if (narrow_in_wide && from_cores < 2 && !one_whole_core) {
     // Fewer than two: the whole part's fit stands.
     kept->resize(before);
     out.fitted = 1;
@@ -252,6 +265,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     // A core stands alone only on clean silhouettes: both sides in a quarter of its views, on
     // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges).
     const bool clean = f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m;
+    const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
     // Stereo smears a stem toward what stands behind it on the same bearing, and the smear's
     // silhouettes are the nearer stem's: a part straight behind a listed stem (its centre within
     // that stem's width seen from the plot centre) stands only on silhouettes of its own, both
@@ -262,7 +276,9 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
                     s.centre_xy.x(), s.centre_xy.y());
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
     }
-    if (verdict != SilhouetteVerdict::kUse) return RefinedStem{verdict, std::move(s), clean};
+    if (verdict != SilhouetteVerdict::kUse) {
+      return RefinedStem{verdict, std::move(s), clean, whole};
+    }
     // The silhouettes' views replace the cloud's count.
     std::erase(s.flags, std::string("few_views"));
     if (f.views < 4) s.flags.push_back("few_views");
@@ -282,7 +298,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }
-    return RefinedStem{verdict, std::move(s), clean};
+    return RefinedStem{verdict, std::move(s), clean, whole};
   };
   PartOutcome total;
   // Nearest first (the detector's order): a farther stem's edge search then stops at the nearer

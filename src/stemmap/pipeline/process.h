@@ -93,11 +93,12 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
 int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems);
 
 // A stem as its silhouettes judged it; `clean`: both sides in a quarter of its views, on one
-// circle to a couple of pixels.
+// circle to a couple of pixels; `whole`: both sides in at least half of them.
 struct RefinedStem {
   SilhouetteVerdict verdict = SilhouetteVerdict::kDrop;
   stems::Stem stem;
   bool clean = false;
+  bool whole = false;
 };
 struct PartOutcome {
   int fitted = 0;      // stems placed by their silhouettes

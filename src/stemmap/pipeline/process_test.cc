@@ -102,9 +102,11 @@ struct InLine {
                         return (c - s.centre_xy).norm() < 1e-9;
                       });
     if (is_part) s.dbh_m = s.dbh_tangent_m = part_fit_dbh_m;
-    return {fits ? SilhouetteVerdict::kUse : SilhouetteVerdict::kDrop, std::move(s), fits};
+    const bool whole = fits && (!is_part || part_whole);
+    return {fits ? SilhouetteVerdict::kUse : SilhouetteVerdict::kDrop, std::move(s), fits, whole};
   }
   double part_fit_dbh_m = 0.226;
+  bool part_whole = true;  // the part's fit shows both sides in most views
 };
 
 TEST(ResolvePart, AFitFarNarrowerThanASmearedPartGivesWayToItsCores) {
@@ -130,6 +132,40 @@ TEST(ResolvePart, OneCoreAloneDoesNotReplaceThePartsFit) {
   EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.226);
   EXPECT_EQ(out.fitted, 1);
   EXPECT_EQ(out.from_cores, 0);
+}
+
+// ... unless the part's fit shows both sides in only some views and that core in most of its
+// own: the part's fit then caught what stands beside the stem.
+TEST(ResolvePart, OneWholeCoreReplacesAPartialFitOfItsPart) {
+  InLine c;
+  c.fitting = {{8.2, -0.1}};
+  c.part_whole = false;
+  std::vector<stems::Stem> kept;
+  const PartOutcome out = ResolvePart(
+      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.17);
+  EXPECT_EQ(out.fitted, 1);
+  EXPECT_EQ(out.from_cores, 1);
+}
+
+// Two cores of one stem overlap: the one with both sides in most of its views stands, though it
+// comes second.
+TEST(ResolvePart, OfOverlappingCoresTheWholeOneStands) {
+  stems::Stem part = Fitted(8.6, -0.2, 0.0, 0.0);
+  part.dbh_slice_m = 0.43;
+  part.alternatives = {Fitted(8.5, -0.2, 0.10, 0.0), Fitted(8.55, -0.15, 0.19, 0.0)};
+  auto refine = [&](stems::Stem s) {
+    const bool is_part = s.dbh_m == 0.0;
+    if (is_part) s.dbh_m = s.dbh_tangent_m = 0.14;
+    const bool whole = s.dbh_m == 0.19;
+    return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, whole};
+  };
+  std::vector<stems::Stem> kept;
+  const PartOutcome out = ResolvePart({}, part, refine, &kept);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.19);
+  EXPECT_EQ(out.from_cores, 1);
 }
 
 TEST(ResolvePart, AFitNearThePartsWidthKeepsThePartWithoutTryingItsCores) {
