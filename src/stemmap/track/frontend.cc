@@ -129,6 +129,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     kf.t_s = t_s;
     orb->detectAndCompute(gray, cv::noArray(), kf.orb_keypoints, kf.orb_descriptors);
     kf.vertical_segments = VerticalSegments(o, gray, lsd.get());
+    kf.gray = gray.clone();  // `gray` is the next frame's buffer
     if (o.keep_keyframe_images) {
       kf.bgr = bgr;
       kf.gray_full = gray_full;

@@ -53,6 +53,7 @@ struct Keyframe {
   cv::Mat orb_descriptors;
   // Long near-vertical line segments (x0, y0, x1, y1, working px): trunk edges, for "up".
   std::vector<cv::Vec4f> vertical_segments;
+  cv::Mat gray;       // working resolution, always (observations are refined on it)
   cv::Mat bgr;        // working resolution, when FrontendOptions::keep_keyframe_images
   cv::Mat gray_full;  // full resolution, when kept and the reader returns it
 };

@@ -84,6 +84,7 @@ void TrackOptions::Check() const {
   frontend.Check();
   loop.Check();
   frames.Check();
+  refine.Check();
   BundleOptions b = bundle;
   b.arm_radius_m = arm_radius_m;
   b.Check();
@@ -162,14 +163,29 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   PlaceOnCircle(phi, o.arm_radius_m, &map);
   nlohmann::json rounds = nlohmann::json::array();
   BundleSummary bs;
+  std::string refine_report;
+  double refine_s = 0.0;
   for (int round = 0; round < o.bundle_rounds; ++round) {
+    if (o.refine_observations && round > 0 && round + 1 == o.bundle_rounds) {
+      Stopwatch refine_clock;
+      std::vector<cv::Mat> gray;
+      for (const Keyframe& kf : f.keyframes) gray.push_back(kf.gray);
+      const std::vector<Track> klt_tracks = f.tracks;
+      const RefineObservationsSummary rs =
+          RefineKeyframeObservations(o.refine, gray, r.camera, map, &f.tracks);
+      CarryCorrectionsToFrames(klt_tracks, f.tracks, f.keyframes, &f.between);
+      spdlog::info("track: observations refined: {}", rs.BriefReport());
+      refine_report = rs.BriefReport();
+      refine_s = refine_clock.Lap();
+    }
     const int made = TriangulateTracks(bo, f.tracks, r.camera, &map);
     bs = RunBundleAdjustment(bo, f.tracks, r.camera, &map);
     spdlog::info("track: bundle adjustment {}/{}: {} (+{} points)", round + 1, o.bundle_rounds,
                  bs.BriefReport(), made);
     rounds.push_back(bs.BriefReport());
   }
-  timing["bundle_adjustment_s"] = clock.Lap();
+  timing["bundle_adjustment_s"] = clock.Lap() - refine_s;
+  timing["refine_observations_s"] = refine_s;
   const double initial_hfov_deg = r.camera.HfovDeg();
   r.camera.fx *= map.focal_scale;
   r.camera.fy *= map.focal_scale;
@@ -246,6 +262,7 @@ TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
   s["direction"] = phi.back() >= 0 ? "counter-clockwise" : "clockwise";
   s["apparent_turn_factor"] = loop.apparent_per_turn_rad / (2.0 * M_PI);
   s["loop_pairs"] = loop.pairs.size();
+  s["observations_refined"] = refine_report;
   s["loop_merged_tracks"] = loop.merged_tracks + loop.extended_tracks;
   s["loop_error_before_deg"] = MeanOdometryLoopErrorDeg(loop, turn);
   s["loop_error_after_deg"] = MeanLoopErrorDeg(loop, map);

@@ -11,6 +11,7 @@
 #include "stemmap/track/frame_poses.h"
 #include "stemmap/track/frontend.h"
 #include "stemmap/track/loop_closure.h"
+#include "stemmap/track/refine_observations.h"
 #include "stemmap/track/vertical.h"
 
 namespace stemmap::track {
@@ -32,6 +33,10 @@ struct TrackOptions {
   double min_turn_deg = 355.0;  // less than this is not a full turn
   double max_dark_share = 0.5;  // more dark frames than this: too dark
   int bundle_rounds = 3;
+  // Before the last round, the keyframe observations are matched again against one view of each
+  // point (see refine_observations.h).
+  bool refine_observations = true;
+  RefineObservationsOptions refine;
   FrontendOptions frontend;
   LoopOptions loop;
   VerticalOptions vertical;
