@@ -255,9 +255,9 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     const double px_m = s.centre_xy.norm() / camera.fx;
     spdlog::debug(
         "tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {} two-sided {} of "
-        "{} tried, rms {:.1f} mm",
+        "{} tried, rms {:.1f} mm, at ({:.3f}, {:.3f})",
         s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
-        f.tried_views, 1000 * f.rms_m);
+        f.tried_views, 1000 * f.rms_m, f.centre.x(), f.centre.y());
     const SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m);
     if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == "tangent") {
       s.flags.push_back(f.ok && f.two_sided_views < 3 ? "one_sided" : "no_silhouette");
