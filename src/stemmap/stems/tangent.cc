@@ -453,8 +453,7 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
   for (const TangentFit& t : tried) {
     if (t.ok) ok_fits.push_back(&t);
   }
-  const int min_two_sided = o.few_views_min_two_sided;
-  if (min_two_sided > 0 && !fit.ok) {
+  if (o.few_views_min_two_sided > 0 && !fit.ok) {
     if (const std::optional<TangentFit> few =
             FitSeenInFewViews(o, ok_fits, centre0, radius0, px_m)) {
       return *few;
