@@ -24,6 +24,7 @@ void ProcessOptions::Check() const {
   track.Check();
   dense.Check();
   stems.Check();
+  bark_depth.Check();
   if (!mask.model.empty()) mask.Check();
   if (!(plot_radius_m > 0)) throw InputError("--plot-radius must be positive");
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
@@ -251,8 +252,19 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
   auto refine = [&](stems::Stem s) {
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
     const double r0 = CloudRadius(s);
-    const stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
+    stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
     const double px_m = s.centre_xy.norm() / camera.fx;
+    stems::BarkDepth bark;
+    if (f.ok)
+      bark = stems::MeasureBarkDepth(o.bark_depth, topt, views, f.centre, f.radius_m, breast_z);
+    if (f.ok && bark.pairs >= o.bark_depth.min_pairs &&
+        bark.peak_ncc < o.bark_depth.min_surface_ncc) {
+      // Views warped through the circle do not line up at any distance: its inside is no one
+      // stem's bark (two stems and the gap between them, a shrub, a stem and what lies behind).
+      spdlog::debug("stems: ({:.2f}, {:.2f}) r {:.3f}: no bark lines up on the fit (ncc {:.2f})",
+                    f.centre.x(), f.centre.y(), f.radius_m, bark.peak_ncc);
+      f.ok = false;
+    }
     spdlog::debug(
         "tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {} two-sided {} of "
         "{} tried, rms {:.1f} mm, at ({:.3f}, {:.3f})",
@@ -287,11 +299,18 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     if (4 * f.hidden_sides > 2 * f.tried_views) s.flags.push_back("occluded");
     // Both silhouettes in too few views: the width rests on one side (a lower bound, mostly).
     if (f.two_sided_views < 3) s.flags.push_back("one_sided");
-    s.dbh_tangent_m = 2 * f.radius_m;
+    // The bark places the circle along the line of sight better than the silhouettes' parallax.
+    Eigen::Vector2d centre = f.centre;
+    double radius = f.radius_m;
+    if (bark.ok) {
+      centre += bark.shift_m * centre.normalized();
+      radius *= bark.scale;
+    }
+    s.dbh_tangent_m = 2 * radius;
     s.dbh_tangent_sd_m = 2 * f.radius_sd_m;
     // The silhouettes place the stem better than the cloud's depth does, whichever DBH is kept.
-    s.fit_shift_m = (f.centre - s.centre_xy).norm();
-    s.centre_xy = f.centre;
+    s.fit_shift_m = (centre - s.centre_xy).norm();
+    s.centre_xy = centre;
     s.n_views = f.views;
     s.arc_deg = f.arc_deg;
     if (o.stems.dbh_method == "tangent") {
@@ -432,6 +451,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
        {"near_stereo_pair_turn_deg", o.dense.near_pair_turn_deg},
        {"tangent", o.tangent},
+       {"bark_depth", o.bark_depth},
        {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});
   WriteJsonAtomic(out_dir / "summary.json", s);
   return r;

@@ -9,6 +9,7 @@
 
 #include "stemmap/dense/dense.h"
 #include "stemmap/dense/trunk_mask.h"
+#include "stemmap/stems/bark_depth.h"
 #include "stemmap/stems/stems.h"
 #include "stemmap/stems/tangent.h"
 #include "stemmap/track/track.h"
@@ -21,8 +22,9 @@ struct ProcessOptions {
   dense::DnnMaskOptions mask;  // optional learned trunk mask (mask.model empty: none)
   stems::StemOptions stems;
   stems::TangentOptions tangent;
-  double plot_radius_m = 10.0;  // plot figures count stems within this radius
-  double min_dbh_cm = 7.0;      // and at least this thick
+  stems::BarkDepthOptions bark_depth;  // the tangent fit's distance from the bark
+  double plot_radius_m = 10.0;         // plot figures count stems within this radius
+  double min_dbh_cm = 7.0;             // and at least this thick
   // Drop cloud clusters whose silhouettes cannot be found in any view (a trunk shows two edges,
   // a leaf clump rarely does). On the simulated plots it removes only false stems (see
   // benchmarks.md); --keep-unconfirmed turns it off.

@@ -6,10 +6,8 @@
 
 namespace stemmap::stems {
 
-namespace {
-
-float Bilinear(const cv::Mat& img, double x, double y) {
-  if (x < 0 || y < 0 || x > img.cols - 2 || y > img.rows - 2) return -1.f;
+float BilinearGray(const cv::Mat& img, double x, double y) {
+  if (!(x >= 0 && y >= 0 && x <= img.cols - 2 && y <= img.rows - 2)) return -1.f;
   const int xi = static_cast<int>(x), yi = static_cast<int>(y);
   const double fx = x - xi, fy = y - yi;
   const uchar* r0 = img.ptr<uchar>(yi);
@@ -17,6 +15,8 @@ float Bilinear(const cv::Mat& img, double x, double y) {
   return static_cast<float>((1 - fy) * ((1 - fx) * r0[xi] + fx * r0[xi + 1]) +
                             fy * ((1 - fx) * r1[xi] + fx * r1[xi + 1]));
 }
+
+namespace {
 
 double Median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -139,7 +139,7 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
         const Eigen::Vector3d p_j = j_from_world * p_w;
         if (p_j.z() <= 0.1) continue;
         const Eigen::Vector2d px = cam.ImageFromCam(p_j);
-        const float vj = Bilinear(img_j, px.x(), px.y());
+        const float vj = BilinearGray(img_j, px.x(), px.y());
         if (vj < 0) continue;
         diff[x - x_begin] += std::abs(img.at<uchar>(y, x) - vj);
         ++count[x - x_begin];

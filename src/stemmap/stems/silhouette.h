@@ -13,6 +13,9 @@
 
 namespace stemmap::stems {
 
+// Bilinear sample of an 8-bit image; -1 outside it (or at NaN).
+float BilinearGray(const cv::Mat& img, double x, double y);
+
 struct Edges {
   bool left = false, right = false;
   double x_left = 0, x_right = 0, y = 0;

@@ -1,0 +1,225 @@
+#include "stemmap/stems/bark_depth.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "stemmap/core/error.h"
+#include "stemmap/stems/silhouette.h"
+
+namespace stemmap::stems {
+
+void BarkDepthOptions::Check() const {
+  if (!(baseline_m > 0.05 && baseline_m < 2.0))
+    throw InputError("bark baseline must be in (0.05, 2) m");
+  if (!(min_baseline_m > 0 && min_baseline_m <= baseline_m)) {
+    throw InputError("the shortest bark baseline must be positive and at most the baseline");
+  }
+  if (!(baseline_share >= 0 && baseline_share < 0.2))
+    throw InputError("bark baseline share must be in [0, 0.2)");
+  if (!(band_half_height_m > 0.01 && band_half_height_m < 0.5)) {
+    throw InputError("bark band half height must be in (0.01, 0.5) m");
+  }
+  if (!(inner_share > 0.1 && inner_share <= 1.0))
+    throw InputError("bark inner share must be in (0.1, 1]");
+  if (!(search_m > 0 && step_m > 0 && search_m / step_m <= 500)) {
+    throw InputError("bark depth search: search_m and step_m positive, at most 500 steps");
+  }
+  if (max_pixels < min_pixels || min_pixels < 10) throw InputError("bark pixel counts invalid");
+  if (!(min_surface_ncc <= min_peak_ncc)) {
+    throw InputError("the bark's surface correlation must not exceed its peak correlation");
+  }
+  if (min_pairs < 2) throw InputError("bark depth needs at least 2 pairs");
+}
+
+void to_json(nlohmann::json& j, const BarkDepthOptions& o) {
+  j = {{"enabled", o.enabled},
+       {"baseline_m", o.baseline_m},
+       {"baseline_share", o.baseline_share},
+       {"min_baseline_m", o.min_baseline_m},
+       {"band_half_height_m", o.band_half_height_m},
+       {"inner_share", o.inner_share},
+       {"search_m", o.search_m},
+       {"step_m", o.step_m},
+       {"max_pixels", o.max_pixels},
+       {"min_pixels", o.min_pixels},
+       {"min_pairs", o.min_pairs},
+       {"min_peak_ncc", o.min_peak_ncc},
+       {"min_peak_contrast", o.min_peak_contrast},
+       {"min_surface_ncc", o.min_surface_ncc}};
+}
+
+namespace {
+
+// Whether keyframe k sees the stem's breast height whole: in the picture, not behind a nearer
+// stem. Fills the silhouette columns at breast height.
+bool SeesBark(const TangentOptions& t, const TangentViews& v, int k, const Eigen::Vector2d& c,
+              double r, double breast_z, double inner_share, std::array<double, 2>* xs) {
+  if (k < 0 || k >= static_cast<int>(v.keyframes->size()) || (*v.gray)[k].empty()) return false;
+  const PinholeCamera& cam = *v.camera;
+  const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
+  const Rigid3d cam_from_world = world_from_cam.Inverse();
+  const Eigen::Vector2d cc = world_from_cam.translation.head<2>();
+  const double d = (c - cc).norm();
+  if (d < r + 0.3) return false;
+  const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
+  if (p_cam.z() < 0.5) return false;
+  const double x = cam.ImageFromCam(p_cam).x();
+  if (x < 0.08 * cam.width || x > 0.92 * cam.width) return false;
+  if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, breast_z, xs)) return false;
+  // The middle of the stem that is compared must be free.
+  const double xm = 0.5 * ((*xs)[0] + (*xs)[1]);
+  const double half = 0.5 * std::min(1.0, inner_share + 0.1) * ((*xs)[1] - (*xs)[0]);
+  for (const Eigen::Vector3d& q : FrontOccluders(t, v, cc, (c - cc) / d, d, r)) {
+    std::array<double, 2> qs;
+    if (!SilhouetteColumns(cam, cam_from_world, cc, q.head<2>(), q.z(), breast_z, &qs)) continue;
+    if (qs[0] < xm + half && qs[1] > xm - half) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
+                           const TangentViews& v, const Eigen::Vector2d& c, double r,
+                           double breast_z) {
+  BarkDepth out;
+  const double dist = c.norm();
+  if (!o.enabled || dist < 1e-6 || r <= 0) return out;
+  const Eigen::Vector2d along = c / dist;
+  const PinholeCamera& cam = *v.camera;
+  const int n_kf = static_cast<int>(v.keyframes->size());
+  // Pairs (k, j): k's bark pixels are warped into j.
+  std::vector<std::array<int, 2>> pairs;
+  const double baseline_m = std::max(o.baseline_m, o.baseline_share * dist);
+  std::vector<std::array<double, 2>> columns(n_kf);
+  std::vector<char> sees(n_kf, 0);
+  for (int k = 0; k < n_kf; ++k)
+    sees[k] = SeesBark(t, v, k, c, r, breast_z, o.inner_share, &columns[k]);
+  double cam_dist_sum = 0;
+  int cam_dist_n = 0;
+  for (int k = 0; k < n_kf; ++k) {
+    if (!sees[k]) continue;
+    const Eigen::Vector3d ck = (*v.keyframes)[k].world_from_cam.translation;
+    cam_dist_sum += (c - ck.head<2>()).norm();
+    ++cam_dist_n;
+    for (int dir : {-1, 1}) {
+      int j = k + dir;
+      while (j >= 0 && j < n_kf &&
+             ((*v.keyframes)[j].world_from_cam.translation - ck).head<2>().norm() < baseline_m) {
+        j += dir;
+      }
+      // Short of the baseline where the bark is hidden or out of the picture there, down to
+      // the shortest baseline.
+      const auto apart = [&](int i) {
+        return ((*v.keyframes)[i].world_from_cam.translation - ck).head<2>().norm();
+      };
+      j = std::clamp(j, 0, n_kf - 1);
+      while (j != k && !(sees[j] && apart(j) >= o.min_baseline_m)) j -= dir;
+      if (j != k) pairs.push_back({k, j});
+    }
+  }
+  if (static_cast<int>(pairs.size()) < o.min_pairs) {
+    spdlog::debug("bark depth ({:.2f}, {:.2f}) r {:.3f}: {} views see the bark, {} pairs", c.x(),
+                  c.y(), r, cam_dist_n, pairs.size());
+    return out;
+  }
+  // The radius scales with the distance from the cameras, which keeps the apparent width.
+  const double cam_dist = cam_dist_sum / cam_dist_n;
+  const int n_steps = 2 * static_cast<int>(std::lround(o.search_m / o.step_m)) + 1;
+  const int half = n_steps / 2;
+  std::vector<std::vector<double>> ncc(pairs.size(), std::vector<double>(n_steps, NAN));
+#pragma omp parallel for schedule(dynamic)
+  for (size_t p = 0; p < pairs.size(); ++p) {
+    const auto [k, j] = pairs[p];
+    const cv::Mat& img_k = (*v.gray)[k];
+    const cv::Mat& img_j = (*v.gray)[j];
+    const Rigid3d& world_from_k = (*v.keyframes)[k].world_from_cam;
+    const Rigid3d j_from_world = (*v.keyframes)[j].world_from_cam.Inverse();
+    const Rigid3d k_from_world = world_from_k.Inverse();
+    const Eigen::Vector3d ck = world_from_k.translation;
+    // k's bark: the middle of the stem's width, rows within the band around breast height.
+    const double xm = 0.5 * (columns[k][0] + columns[k][1]);
+    const double half_w = 0.5 * o.inner_share * (columns[k][1] - columns[k][0]);
+    const double y_top =
+        cam.ImageFromCam(k_from_world *
+                         Eigen::Vector3d(c.x(), c.y(), breast_z + o.band_half_height_m))
+            .y();
+    const double y_bot =
+        cam.ImageFromCam(k_from_world *
+                         Eigen::Vector3d(c.x(), c.y(), breast_z - o.band_half_height_m))
+            .y();
+    const int x0 = std::max(1, static_cast<int>(std::ceil(xm - half_w)));
+    const int x1 = std::min(img_k.cols - 2, static_cast<int>(std::floor(xm + half_w)));
+    const int y0 = std::max(1, static_cast<int>(std::ceil(std::min(y_top, y_bot))));
+    const int y1 = std::min(img_k.rows - 2, static_cast<int>(std::floor(std::max(y_top, y_bot))));
+    const double area = std::max(0, x1 - x0 + 1) * std::max(0, y1 - y0 + 1);
+    if (area < o.min_pixels) continue;
+    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(area / o.max_pixels))));
+    std::vector<Eigen::Vector3d> rays;
+    std::vector<float> values;
+    for (int y = y0; y <= y1; y += stride) {
+      for (int x = x0; x <= x1; x += stride) {
+        rays.push_back(world_from_k.rotation * cam.CamRayFromImage({double(x), double(y)}));
+        values.push_back(img_k.at<uchar>(y, x));
+      }
+    }
+    for (int i = 0; i < n_steps; ++i) {
+      const double shift = (i - half) * o.step_m;
+      const Eigen::Vector2d ci = c + shift * along;
+      const double ri = r * (cam_dist + shift) / cam_dist;
+      const Eigen::Vector2d q = ck.head<2>() - ci;
+      double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+      int n = 0;
+      for (size_t m = 0; m < rays.size(); ++m) {
+        const Eigen::Vector3d& w = rays[m];
+        const double a = w.head<2>().squaredNorm(), b = q.dot(w.head<2>());
+        const double disc = b * b - a * (q.squaredNorm() - ri * ri);
+        if (a < 1e-12 || disc < 0) continue;
+        const double s = (-b - std::sqrt(disc)) / a;
+        if (s <= 0) continue;
+        const Eigen::Vector3d p_j = j_from_world * (ck + s * w);
+        if (p_j.z() <= 0.1) continue;
+        const Eigen::Vector2d px = cam.ImageFromCam(p_j);
+        const float vj = BilinearGray(img_j, px.x(), px.y());
+        if (vj < 0) continue;
+        const double va = values[m];
+        sa += va, sb += vj, saa += va * va, sbb += double(vj) * vj, sab += va * vj;
+        ++n;
+      }
+      if (n < o.min_pixels || 2 * n < static_cast<int>(rays.size())) continue;
+      const double cov = sab - sa * sb / n, var_a = saa - sa * sa / n, var_b = sbb - sb * sb / n;
+      if (var_a <= 1e-6 * n || var_b <= 1e-6 * n) continue;
+      ncc[p][i] = cov / std::sqrt(var_a * var_b);
+    }
+  }
+  // The mean over pairs that compared at every distance, so that each distance has the same pairs.
+  std::vector<double> score(n_steps, 0.0);
+  for (const std::vector<double>& curve : ncc) {
+    if (std::ranges::any_of(curve, [](double x) { return std::isnan(x); })) continue;
+    for (int i = 0; i < n_steps; ++i) score[i] += curve[i];
+    ++out.pairs;
+  }
+  if (out.pairs < o.min_pairs) return out;
+  for (double& s : score) s /= out.pairs;
+  const int best = static_cast<int>(std::ranges::max_element(score) - score.begin());
+  out.peak_ncc = score[best];
+  out.end_ncc = 0.5 * (score.front() + score.back());
+  spdlog::debug(
+      "bark depth ({:.2f}, {:.2f}) r {:.3f}: {} pairs, peak {:.3f} at {:+.3f} m, ends {:.3f}",
+      c.x(), c.y(), r, out.pairs, out.peak_ncc, (best - half) * o.step_m, out.end_ncc);
+  if (best == 0 || best == n_steps - 1) return out;
+  if (out.peak_ncc < o.min_peak_ncc || out.peak_ncc - out.end_ncc < o.min_peak_contrast) return out;
+  const double sm = score[best - 1], sp = score[best + 1];
+  const double den = sm - 2 * score[best] + sp;
+  const double off = den < 0 ? std::clamp(0.5 * (sm - sp) / den, -0.5, 0.5) : 0.0;
+  out.shift_m = (best - half + off) * o.step_m;
+  out.scale = (cam_dist + out.shift_m) / cam_dist;
+  out.ok = true;
+  return out;
+}
+
+}  // namespace stemmap::stems

@@ -1,0 +1,60 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <nlohmann/json_fwd.hpp>
+#include <vector>
+
+#include "stemmap/stems/tangent.h"
+
+namespace stemmap::stems {
+
+// A stem's distance from its bark. The tangent rays fix a stem's bearing and apparent width well,
+// but its distance only through the parallax of two edges across the arm's short arc, so a
+// fraction of a pixel on the edges moves it by centimetres. The bark between the edges is a
+// thousand pixels of texture: two keyframes a few decimetres apart, one warped onto the other
+// through a circle of the fitted apparent width, line up on the bark only when the circle is at
+// the right distance. The distance is searched along the line from the plot centre; the radius
+// scales with it so that the circle keeps the silhouettes.
+struct BarkDepthOptions {
+  bool enabled = true;
+  // Camera separation of the compared keyframes, at least: this, and this share of the stem's
+  // distance (the bark's parallax against a distance error falls with the distance squared).
+  double baseline_m = 0.45;
+  double baseline_share = 0.07;
+  // Where the bark is hidden or out of the picture that far, the farthest keyframe short of it
+  // that shows the bark, down to this.
+  double min_baseline_m = 0.25;
+  double band_half_height_m = 0.1;  // rows within this height of breast height
+  double inner_share = 0.6;         // middle share of the stem's width compared
+  double search_m = 0.3;            // distances tried on either side of the tangent fit
+  double step_m = 0.01;
+  int max_pixels = 1200;            // compared per keyframe (a near stem's are subsampled)
+  int min_pixels = 60;              // a view showing less bark is not used
+  int min_pairs = 6;                // of keyframes
+  double min_peak_ncc = 0.7;        // mean normalised correlation at the best distance
+  double min_peak_contrast = 0.02;  // above the mean of the search's two ends
+  // Below this correlation at every distance, with enough pairs compared, the circle's inside is
+  // not one stem's bark: the fit caught two stems and the gap between them, a shrub, or a stem
+  // and what lies behind it.
+  double min_surface_ncc = 0.3;
+  void Check() const;
+};
+
+void to_json(nlohmann::json& j, const BarkDepthOptions& o);
+
+struct BarkDepth {
+  bool ok = false;
+  double shift_m = 0.0;  // along the line from the plot centre (+: farther)
+  double scale = 1.0;    // of the radius, which keeps the silhouettes
+  double peak_ncc = 0.0, end_ncc = 0.0;
+  int pairs = 0;
+};
+
+// Distance of the circle (centre, radius) at height breast_z, searched from the bark in the views
+// (occluders: nearer stems, whose silhouettes must leave the bark free). `silhouettes` are the
+// tangent options, for what counts as a nearer stem.
+BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& silhouettes,
+                           const TangentViews& views, const Eigen::Vector2d& centre, double radius,
+                           double breast_z);
+
+}  // namespace stemmap::stems

@@ -1,0 +1,92 @@
+#include "stemmap/stems/bark_depth.h"
+
+#include <gtest/gtest.h>
+
+#include "stemmap/core/error.h"
+#include "stemmap/stems/test_scene.h"
+
+namespace stemmap::stems {
+namespace {
+
+// A circle with the stem's apparent width, `shift_m` farther along the line from the plot centre
+// (as the tangent rays leave it when their parallax errs).
+struct Start {
+  Eigen::Vector2d centre;
+  double radius;
+};
+Start MovedAlongTheLineOfSight(const Eigen::Vector2d& centre, double radius, double shift_m) {
+  const double cam_dist = centre.norm() - 0.95;  // the cameras stand on the arm, facing out
+  return {centre + shift_m * centre.normalized(), radius * (cam_dist + shift_m) / cam_dist};
+}
+
+// The bark finds the distance that the silhouettes missed, on either side, to about a centimetre
+// (a pixel is 1.2 cm at the stem here).
+TEST(BarkDepth, FindsTheDistanceOfABarkedStem) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.15;
+  const RenderedStem scene =
+      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Bark::kNoise);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  for (double error_m : {-0.12, 0.0, 0.08, 0.2}) {
+    SCOPED_TRACE(error_m);
+    const Start s = MovedAlongTheLineOfSight(centre, radius, error_m);
+    const BarkDepth d =
+        MeasureBarkDepth(BarkDepthOptions(), TangentOptions(), views, s.centre, s.radius, 1.37);
+    ASSERT_TRUE(d.ok);
+    EXPECT_NEAR(d.shift_m, -error_m, 0.012);
+    EXPECT_GT(d.peak_ncc, 0.8);
+    EXPECT_GE(d.pairs, BarkDepthOptions().min_pairs);
+    // The radius follows the distance: the circle keeps the stem's apparent width.
+    EXPECT_NEAR(s.radius * d.scale, radius, 0.002);
+  }
+}
+
+// Bark without texture says nothing about the distance, and a distance off by more than the
+// search reaches finds no peak inside it: neither moves the stem.
+TEST(BarkDepth, NoTextureOrNoPeakLeavesTheStem) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.15;
+  const RenderedStem plain =
+      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Bark::kPlain);
+  const TangentViews plain_views{&plain.camera, &plain.keyframes, &plain.gray};
+  EXPECT_FALSE(
+      MeasureBarkDepth(BarkDepthOptions(), TangentOptions(), plain_views, centre, radius, 1.37).ok);
+  const RenderedStem barked =
+      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Bark::kNoise);
+  const TangentViews views{&barked.camera, &barked.keyframes, &barked.gray};
+  const Start far = MovedAlongTheLineOfSight(centre, radius, 0.6);
+  BarkDepthOptions o;
+  o.search_m = 0.25;
+  EXPECT_FALSE(MeasureBarkDepth(o, TangentOptions(), views, far.centre, far.radius, 1.37).ok);
+  o.enabled = false;
+  EXPECT_FALSE(MeasureBarkDepth(o, TangentOptions(), views, centre, radius, 1.37).ok);
+}
+
+// A nearer stem across the bark in every view leaves no pair to compare.
+TEST(BarkDepth, BarkBehindANearerStemIsNotCompared) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const std::vector<Eigen::Vector3d> occluders = {{3.0, 0.15, 0.2}};
+  const RenderedStem scene =
+      RenderStems({{centre.x(), centre.y(), 0.15}, occluders[0]}, true, false, Bark::kNoise);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray, &occluders};
+  const BarkDepth d =
+      MeasureBarkDepth(BarkDepthOptions(), TangentOptions(), views, centre, 0.15, 1.37);
+  EXPECT_FALSE(d.ok);
+  EXPECT_LT(d.pairs, BarkDepthOptions().min_pairs);
+}
+
+TEST(BarkDepth, OptionsAreChecked) {
+  EXPECT_NO_THROW(BarkDepthOptions().Check());
+  BarkDepthOptions o;
+  o.step_m = 0;
+  EXPECT_THROW(o.Check(), InputError);
+  o = BarkDepthOptions();
+  o.baseline_m = 3.0;
+  EXPECT_THROW(o.Check(), InputError);
+  o = BarkDepthOptions();
+  o.min_pixels = o.max_pixels + 1;
+  EXPECT_THROW(o.Check(), InputError);
+}
+
+}  // namespace
+}  // namespace stemmap::stems

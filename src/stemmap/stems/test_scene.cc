@@ -1,0 +1,59 @@
+#include "stemmap/stems/test_scene.h"
+
+#include <Eigen/Geometry>
+#include <cmath>
+
+#include "stemmap/core/noise.h"
+
+namespace stemmap::stems {
+
+RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
+                         bool sunlit, Bark bark) {
+  RenderedStem r;
+  const ValueNoise noise(7);
+  for (int k = 0; k < 34; ++k) {
+    const double th = (-30.0 + 2.0 * k) * M_PI / 180.0;
+    Eigen::Matrix3d rot;  // columns: camera x (right), y (down), z (forward) in the plot frame
+    rot << std::sin(th), 0, std::cos(th), -std::cos(th), 0, std::sin(th), 0, -1, 0;
+    Rigid3d world_from_cam{Eigen::Quaterniond(rot),
+                           Eigen::Vector3d(std::cos(th), std::sin(th), 1.3)};
+    cv::Mat img(r.camera.height, r.camera.width, CV_8U);
+    for (int y = 0; y < img.rows; ++y) {
+      for (int x = 0; x < img.cols; ++x) {
+        const Eigen::Vector3d ray = world_from_cam.rotation * r.camera.CamRayFromImage({x, y});
+        const Eigen::Vector2d u = ray.head<2>();
+        double luma = sunlit ? 130 : 210, nearest = 1e9;  // sky
+        for (size_t i = 0; i < stems.size(); ++i) {
+          const Eigen::Vector2d q = world_from_cam.translation.head<2>() - stems[i].head<2>();
+          const double a = u.squaredNorm(), b = q.dot(u),
+                       c = q.squaredNorm() - stems[i].z() * stems[i].z();
+          if (b * b - a * c < 0) continue;
+          const double t = (-b - std::sqrt(b * b - a * c)) / a;
+          if (t <= 0 || t >= nearest) continue;
+          nearest = t;
+          const Eigen::Vector2d hit = q + t * u;
+          const double az = std::atan2(hit.y(), hit.x());
+          luma = 80 + 40 * i;
+          if (bark == Bark::kFurrows) luma += 25 * std::sin(40 * az);
+          if (bark == Bark::kNoise) {
+            // Bark pieces about 3 cm across and 5 cm high.
+            const double z = world_from_cam.translation.z() + t * ray.z();
+            luma += 40 * noise.Noise2(stems[i].z() * (az + M_PI) / 0.03 + 100 * i, z / 0.05);
+          }
+          if (sunlit)
+            luma = 70 + 130 * std::sqrt(std::max(0.0, hit.normalized().y())) + 0.4 * (luma - 80);
+        }
+        if (nearest > 1e8 && textured_background) {
+          const double az = std::atan2(u.y(), u.x());
+          luma = 150 + 50 * std::sin(400 * az) * std::cos(30 * ray.z() / u.norm());
+        }
+        img.at<uchar>(y, x) = cv::saturate_cast<uchar>(luma);
+      }
+    }
+    r.keyframes.push_back({0.1 * k, world_from_cam});
+    r.gray.push_back(img);
+  }
+  return r;
+}
+
+}  // namespace stemmap::stems

@@ -1,0 +1,31 @@
+#pragma once
+
+// Test scenes for the silhouette and bark estimators: keyframes on the arm's circle looking
+// outward at vertical stems, rendered by ray casting.
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
+
+namespace stemmap::stems {
+
+struct RenderedStem {
+  PinholeCamera camera = PinholeCamera::FromHfov(640, 360, 67.0);
+  std::vector<StampedPose> keyframes;
+  std::vector<cv::Mat> gray;
+};
+
+// The stems' bark: regular furrows (a stripe every 9° of the stem's azimuth), irregular bark
+// (value noise across and along the stem), or none (one grey).
+enum class Bark { kFurrows, kNoise, kPlain };
+
+// Stems as (x, y, radius); the nearest one a pixel's ray meets is seen, each with its own bark,
+// in front of either a plain sky or a textured far background. With `sunlit`, sun from +y lights
+// the stems' left sides (as seen looking along +x) brighter than a plain grey sky, their middles
+// darker.
+RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
+                         bool sunlit = false, Bark bark = Bark::kFurrows);
+
+}  // namespace stemmap::stems
