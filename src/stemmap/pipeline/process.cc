@@ -225,6 +225,22 @@ bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vect
   return false;
 }
 
+stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::TangentOptions& t,
+                                const stems::TangentViews& views, double breast_z,
+                                stems::TangentFit* fit) {
+  if (!fit->ok) return {};
+  const stems::BarkDepth bark =
+      stems::MeasureBarkDepth(o, t, views, fit->centre, fit->radius_m, breast_z);
+  if (bark.pairs >= o.min_pairs && bark.peak_ncc < o.min_surface_ncc) {
+    // Views warped through the circle do not line up at any distance: its inside is no one
+    // stem's bark (two stems and the gap between them, a shrub, a stem and what lies behind it).
+    spdlog::debug("stems: ({:.2f}, {:.2f}) r {:.3f}: no bark lines up on the fit (ncc {:.2f})",
+                  fit->centre.x(), fit->centre.y(), fit->radius_m, bark.peak_ncc);
+    fit->ok = false;
+  }
+  return bark;
+}
+
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
                            std::vector<stems::Stem>* stems) {
@@ -254,17 +270,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     const double r0 = CloudRadius(s);
     stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
     const double px_m = s.centre_xy.norm() / camera.fx;
-    stems::BarkDepth bark;
-    if (f.ok)
-      bark = stems::MeasureBarkDepth(o.bark_depth, topt, views, f.centre, f.radius_m, breast_z);
-    if (f.ok && bark.pairs >= o.bark_depth.min_pairs &&
-        bark.peak_ncc < o.bark_depth.min_surface_ncc) {
-      // Views warped through the circle do not line up at any distance: its inside is no one
-      // stem's bark (two stems and the gap between them, a shrub, a stem and what lies behind).
-      spdlog::debug("stems: ({:.2f}, {:.2f}) r {:.3f}: no bark lines up on the fit (ncc {:.2f})",
-                    f.centre.x(), f.centre.y(), f.radius_m, bark.peak_ncc);
-      f.ok = false;
-    }
+    const stems::BarkDepth bark = CheckFitOnBark(o.bark_depth, topt, views, breast_z, &f);
     spdlog::debug(
         "tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {} two-sided {} of "
         "{} tried, rms {:.1f} mm, at ({:.3f}, {:.3f})",

@@ -123,6 +123,12 @@ void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
 // centre: farther than its far side and within its angular width.
 bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vector2d& centre);
 
+// The tangent fit checked on the bark: its distance from the bark (returned), and a fit whose bark
+// lines up at no distance (correlation under min_surface_ncc over enough pairs) fails.
+stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::TangentOptions& t,
+                                const stems::TangentViews& views, double breast_z,
+                                stems::TangentFit* fit);
+
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
 // method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution
 // (blurred in place), or empty to use `bgr` at the working resolution.

@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "stemmap/core/error.h"
+#include "stemmap/stems/test_scene.h"
 
 namespace stemmap::pipeline {
 namespace {
@@ -332,6 +333,35 @@ TEST(JudgeSilhouetteFit, WiderSilhouettesUpToALittleBeyondTheWidestStart) {
   o.tangent.wide_start_scales = {1.6};  // a narrower widest start narrows the bound
   c.fit.radius_m = 2.6 * 0.15;
   EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+}
+
+// Two stems 0.7 m apart, 6 m away, and a fit that took in both and the gap between them: its bark
+// lines up at no distance, and the fit fails. A fit on one of them keeps its place and gets its
+// distance from the bark.
+TEST(CheckFitOnBark, AFitAcrossTwoStemsFails) {
+  const Eigen::Vector3d a(6.0, 0.0, 0.1), b(6.0, 0.9, 0.1);
+  const stems::RenderedStem scene =
+      stems::RenderStems({a, b}, true, false, stems::Texture::kIrregular);
+  const stems::TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  stems::TangentFit across;
+  across.ok = true;
+  across.centre = {6.0, 0.45};
+  across.radius_m = 0.55;
+  const stems::BarkDepthOptions o;
+  const stems::TangentOptions t;
+  stems::TangentFit fit = across;
+  const stems::BarkDepth no_bark = CheckFitOnBark(o, t, views, 1.37, &fit);
+  EXPECT_FALSE(fit.ok);
+  EXPECT_GE(no_bark.pairs, o.min_pairs);
+  EXPECT_LT(no_bark.peak_ncc, o.min_surface_ncc);
+  fit = across;
+  fit.centre = a.head<2>();
+  fit.radius_m = a.z();
+  const stems::BarkDepth bark = CheckFitOnBark(o, t, views, 1.37, &fit);
+  EXPECT_TRUE(fit.ok);
+  ASSERT_TRUE(bark.ok);
+  EXPECT_GT(bark.peak_ncc, o.min_peak_ncc);
+  EXPECT_NEAR(bark.shift_m, 0.0, 0.01);
 }
 
 }  // namespace

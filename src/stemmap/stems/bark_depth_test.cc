@@ -25,7 +25,7 @@ TEST(BarkDepth, FindsTheDistanceOfABarkedStem) {
   const Eigen::Vector2d centre(6.0, 0.3);
   const double radius = 0.15;
   const RenderedStem scene =
-      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Bark::kNoise);
+      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Texture::kIrregular);
   const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
   for (double error_m : {-0.12, 0.0, 0.08, 0.2}) {
     SCOPED_TRACE(error_m);
@@ -47,12 +47,12 @@ TEST(BarkDepth, NoTextureOrNoPeakLeavesTheStem) {
   const Eigen::Vector2d centre(6.0, 0.3);
   const double radius = 0.15;
   const RenderedStem plain =
-      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Bark::kPlain);
+      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Texture::kPlainBark);
   const TangentViews plain_views{&plain.camera, &plain.keyframes, &plain.gray};
   EXPECT_FALSE(
       MeasureBarkDepth(BarkDepthOptions(), TangentOptions(), plain_views, centre, radius, 1.37).ok);
   const RenderedStem barked =
-      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Bark::kNoise);
+      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Texture::kIrregular);
   const TangentViews views{&barked.camera, &barked.keyframes, &barked.gray};
   const Start far = MovedAlongTheLineOfSight(centre, radius, 0.6);
   BarkDepthOptions o;
@@ -67,7 +67,7 @@ TEST(BarkDepth, BarkBehindANearerStemIsNotCompared) {
   const Eigen::Vector2d centre(6.0, 0.3);
   const std::vector<Eigen::Vector3d> occluders = {{3.0, 0.15, 0.2}};
   const RenderedStem scene =
-      RenderStems({{centre.x(), centre.y(), 0.15}, occluders[0]}, true, false, Bark::kNoise);
+      RenderStems({{centre.x(), centre.y(), 0.15}, occluders[0]}, true, false, Texture::kIrregular);
   const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray, &occluders};
   const BarkDepth d =
       MeasureBarkDepth(BarkDepthOptions(), TangentOptions(), views, centre, 0.15, 1.37);

@@ -8,7 +8,7 @@
 namespace stemmap::stems {
 
 RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
-                         bool sunlit, Bark bark) {
+                         bool sunlit, Texture texture) {
   RenderedStem r;
   const ValueNoise noise(7);
   for (int k = 0; k < 34; ++k) {
@@ -34,8 +34,8 @@ RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool texture
           const Eigen::Vector2d hit = q + t * u;
           const double az = std::atan2(hit.y(), hit.x());
           luma = 80 + 40 * i;
-          if (bark == Bark::kFurrows) luma += 25 * std::sin(40 * az);
-          if (bark == Bark::kNoise) {
+          if (texture == Texture::kRegular) luma += 25 * std::sin(40 * az);
+          if (texture == Texture::kIrregular) {
             // Bark pieces about 3 cm across and 5 cm high.
             const double z = world_from_cam.translation.z() + t * ray.z();
             luma += 40 * noise.Noise2(stems[i].z() * (az + M_PI) / 0.03 + 100 * i, z / 0.05);
@@ -45,7 +45,10 @@ RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool texture
         }
         if (nearest > 1e8 && textured_background) {
           const double az = std::atan2(u.y(), u.x());
-          luma = 150 + 50 * std::sin(400 * az) * std::cos(30 * ray.z() / u.norm());
+          const double elevation = ray.z() / u.norm();
+          luma = texture == Texture::kIrregular
+                     ? 150 + 60 * noise.Noise2(az * 250.0 + 300.0, elevation * 60.0)
+                     : 150 + 50 * std::sin(400 * az) * std::cos(30 * elevation);
         }
         img.at<uchar>(y, x) = cv::saturate_cast<uchar>(luma);
       }

@@ -17,15 +17,16 @@ struct RenderedStem {
   std::vector<cv::Mat> gray;
 };
 
-// The stems' bark: regular furrows (a stripe every 9° of the stem's azimuth), irregular bark
-// (value noise across and along the stem), or none (one grey).
-enum class Bark { kFurrows, kNoise, kPlain };
+// Textures: regular (bark furrows a stripe every 9° of the stem's azimuth, a textured background
+// a stripe every 0.9°), irregular (bark and background value noise, nothing periodic), or plain
+// bark (one grey) before the regular background.
+enum class Texture { kRegular, kIrregular, kPlainBark };
 
 // Stems as (x, y, radius); the nearest one a pixel's ray meets is seen, each with its own bark,
 // in front of either a plain sky or a textured far background. With `sunlit`, sun from +y lights
 // the stems' left sides (as seen looking along +x) brighter than a plain grey sky, their middles
 // darker.
 RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
-                         bool sunlit = false, Bark bark = Bark::kFurrows);
+                         bool sunlit = false, Texture texture = Texture::kRegular);
 
 }  // namespace stemmap::stems
