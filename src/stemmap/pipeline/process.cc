@@ -231,11 +231,13 @@ stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::T
   if (!fit->ok) return {};
   const stems::BarkDepth bark =
       stems::MeasureBarkDepth(o, t, views, fit->centre, fit->radius_m, breast_z);
-  if (bark.pairs >= o.min_pairs && bark.peak_ncc < o.min_surface_ncc) {
-    // Views warped through the circle do not line up at any distance: its inside is no one
-    // stem's bark (two stems and the gap between them, a shrub, a stem and what lies behind it).
-    spdlog::debug("stems: ({:.2f}, {:.2f}) r {:.3f}: no bark lines up on the fit (ncc {:.2f})",
-                  fit->centre.x(), fit->centre.y(), fit->radius_m, bark.peak_ncc);
+  if (bark.pairs >= o.min_pairs && (bark.peak_ncc < o.min_surface_ncc || bark.at_search_end)) {
+    // Views warped through the circle do not line up within reach of it: its inside is no one
+    // stem's bark (two stems and the gap between them, a shrub, a stem and what lies behind it),
+    // or the silhouettes put it far from the bark they enclose.
+    spdlog::debug("stems: ({:.2f}, {:.2f}) r {:.3f}: no bark lines up on the fit (ncc {:.2f}{})",
+                  fit->centre.x(), fit->centre.y(), fit->radius_m, bark.peak_ncc,
+                  bark.at_search_end ? " at the end of the search" : "");
     fit->ok = false;
   }
   return bark;

@@ -124,7 +124,8 @@ void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
 bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vector2d& centre);
 
 // The tangent fit checked on the bark: its distance from the bark (returned), and a fit whose bark
-// lines up at no distance (correlation under min_surface_ncc over enough pairs) fails.
+// lines up at no distance (correlation under min_surface_ncc over enough pairs) or best at the end
+// of the search (beyond it, likely) fails.
 stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::TangentOptions& t,
                                 const stems::TangentViews& views, double breast_z,
                                 stems::TangentFit* fit);

@@ -211,7 +211,8 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
   spdlog::debug(
       "bark depth ({:.2f}, {:.2f}) r {:.3f}: {} pairs, peak {:.3f} at {:+.3f} m, ends {:.3f}",
       c.x(), c.y(), r, out.pairs, out.peak_ncc, (best - half) * o.step_m, out.end_ncc);
-  if (best == 0 || best == n_steps - 1) return out;
+  out.at_search_end = best == 0 || best == n_steps - 1;
+  if (out.at_search_end) return out;
   if (out.peak_ncc < o.min_peak_ncc || out.peak_ncc - out.end_ncc < o.min_peak_contrast) return out;
   const double sm = score[best - 1], sp = score[best + 1];
   const double den = sm - 2 * score[best] + sp;

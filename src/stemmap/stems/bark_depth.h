@@ -35,7 +35,8 @@ struct BarkDepthOptions {
   double min_peak_contrast = 0.02;  // above the mean of the search's two ends
   // Below this correlation at every distance, with enough pairs compared, the circle's inside is
   // not one stem's bark: the fit caught two stems and the gap between them, a shrub, or a stem
-  // and what lies behind it.
+  // and what lies behind it. Nor is it when the bark lines up best at the end of the search: the
+  // silhouettes put the circle farther than search_m from the bark they enclose.
   double min_surface_ncc = 0.3;
   void Check() const;
 };
@@ -48,6 +49,7 @@ struct BarkDepth {
   double scale = 1.0;    // of the radius, which keeps the silhouettes
   double peak_ncc = 0.0, end_ncc = 0.0;
   int pairs = 0;
+  bool at_search_end = false;  // the bark lines up best at the end of the search, or beyond it
 };
 
 // Distance of the circle (centre, radius) at height breast_z, searched from the bark in the views

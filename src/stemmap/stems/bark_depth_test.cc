@@ -57,7 +57,10 @@ TEST(BarkDepth, NoTextureOrNoPeakLeavesTheStem) {
   const Start far = MovedAlongTheLineOfSight(centre, radius, 0.6);
   BarkDepthOptions o;
   o.search_m = 0.25;
-  EXPECT_FALSE(MeasureBarkDepth(o, TangentOptions(), views, far.centre, far.radius, 1.37).ok);
+  const BarkDepth beyond =
+      MeasureBarkDepth(o, TangentOptions(), views, far.centre, far.radius, 1.37);
+  EXPECT_FALSE(beyond.ok);
+  EXPECT_TRUE(beyond.at_search_end);  // the bark lines up best toward the stem
   o.enabled = false;
   EXPECT_FALSE(MeasureBarkDepth(o, TangentOptions(), views, centre, radius, 1.37).ok);
 }
