@@ -54,31 +54,57 @@ void to_json(nlohmann::json& j, const BarkDepthOptions& o) {
 
 namespace {
 
-// Whether keyframe k sees the stem's breast height whole: in the picture, not behind a nearer
-// stem. Fills the silhouette columns at breast height.
-bool SeesBark(const TangentOptions& t, const TangentViews& v, int k, const Eigen::Vector2d& c,
-              double r, double breast_z, double inner_share, std::array<double, 2>* xs) {
-  if (k < 0 || k >= static_cast<int>(v.keyframes->size()) || (*v.gray)[k].empty()) return false;
+// What keyframe k shows of a stem's bark at breast height: the columns compared (the middle
+// inner_share of the stem's width, or the widest part of it that nearer stems leave free, if at
+// least three quarters of it) and the nearer stems' columns, where nothing of the stem shows.
+struct BarkView {
+  bool sees = false;
+  double x_lo = 0, x_hi = 0;
+  std::vector<std::array<double, 2>> occluder_cols;
+  bool Hidden(double x) const {
+    return std::ranges::any_of(occluder_cols, [&](const auto& q) { return x > q[0] && x < q[1]; });
+  }
+};
+
+BarkView SeesBark(const TangentOptions& t, const TangentViews& v, int k, const Eigen::Vector2d& c,
+                  double r, double breast_z, double inner_share) {
+  BarkView out;
+  if (k < 0 || k >= static_cast<int>(v.keyframes->size()) || (*v.gray)[k].empty()) return out;
   const PinholeCamera& cam = *v.camera;
   const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
   const Rigid3d cam_from_world = world_from_cam.Inverse();
   const Eigen::Vector2d cc = world_from_cam.translation.head<2>();
   const double d = (c - cc).norm();
-  if (d < r + 0.3) return false;
+  if (d < r + 0.3) return out;
   const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
-  if (p_cam.z() < 0.5) return false;
+  if (p_cam.z() < 0.5) return out;
   const double x = cam.ImageFromCam(p_cam).x();
-  if (x < 0.08 * cam.width || x > 0.92 * cam.width) return false;
-  if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, breast_z, xs)) return false;
-  // The middle of the stem that is compared must be free.
-  const double xm = 0.5 * ((*xs)[0] + (*xs)[1]);
-  const double half = 0.5 * std::min(1.0, inner_share + 0.1) * ((*xs)[1] - (*xs)[0]);
+  if (x < 0.08 * cam.width || x > 0.92 * cam.width) return out;
+  std::array<double, 2> xs;
+  if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, breast_z, &xs)) return out;
+  const double xm = 0.5 * (xs[0] + xs[1]), half = 0.5 * inner_share * (xs[1] - xs[0]);
+  // Free stretches of the middle, clear of each nearer stem by a tenth of the stem's width (the
+  // nearer stem's fitted outline errs by a few pixels).
+  std::vector<std::array<double, 2>> free = {{xm - half, xm + half}};
+  const double guard_px = std::max(3.0, 0.1 * (xs[1] - xs[0]));
   for (const Eigen::Vector3d& q : FrontOccluders(t, v, cc, (c - cc) / d, d, r)) {
     std::array<double, 2> qs;
     if (!SilhouetteColumns(cam, cam_from_world, cc, q.head<2>(), q.z(), breast_z, &qs)) continue;
-    if (qs[0] < xm + half && qs[1] > xm - half) return false;
+    out.occluder_cols.push_back({qs[0] - guard_px, qs[1] + guard_px});
+    std::vector<std::array<double, 2>> rest;
+    for (const auto& [lo, hi] : free) {
+      if (out.occluder_cols.back()[0] > lo)
+        rest.push_back({lo, std::min(hi, out.occluder_cols.back()[0])});
+      if (out.occluder_cols.back()[1] < hi)
+        rest.push_back({std::max(lo, out.occluder_cols.back()[1]), hi});
+    }
+    free = std::move(rest);
   }
-  return true;
+  for (const auto& [lo, hi] : free) {
+    if (hi - lo > out.x_hi - out.x_lo) out.x_lo = lo, out.x_hi = hi;
+  }
+  out.sees = out.x_hi - out.x_lo >= std::max(4.0, 1.5 * half);
+  return out;
 }
 
 }  // namespace
@@ -95,10 +121,12 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
   // Pairs (k, j): k's bark pixels are warped into j.
   std::vector<std::array<int, 2>> pairs;
   const double baseline_m = std::max(o.baseline_m, o.baseline_share * dist);
-  std::vector<std::array<double, 2>> columns(n_kf);
+  std::vector<BarkView> seen(n_kf);
   std::vector<char> sees(n_kf, 0);
-  for (int k = 0; k < n_kf; ++k)
-    sees[k] = SeesBark(t, v, k, c, r, breast_z, o.inner_share, &columns[k]);
+  for (int k = 0; k < n_kf; ++k) {
+    seen[k] = SeesBark(t, v, k, c, r, breast_z, o.inner_share);
+    sees[k] = seen[k].sees;
+  }
   double cam_dist_sum = 0;
   int cam_dist_n = 0;
   for (int k = 0; k < n_kf; ++k) {
@@ -141,9 +169,8 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
     const Rigid3d j_from_world = (*v.keyframes)[j].world_from_cam.Inverse();
     const Rigid3d k_from_world = world_from_k.Inverse();
     const Eigen::Vector3d ck = world_from_k.translation;
-    // k's bark: the middle of the stem's width, rows within the band around breast height.
-    const double xm = 0.5 * (columns[k][0] + columns[k][1]);
-    const double half_w = 0.5 * o.inner_share * (columns[k][1] - columns[k][0]);
+    // k's bark: the middle of the stem's width left free, rows within the band around breast
+    // height.
     const double y_top =
         cam.ImageFromCam(k_from_world *
                          Eigen::Vector3d(c.x(), c.y(), breast_z + o.band_half_height_m))
@@ -152,8 +179,8 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
         cam.ImageFromCam(k_from_world *
                          Eigen::Vector3d(c.x(), c.y(), breast_z - o.band_half_height_m))
             .y();
-    const int x0 = std::max(1, static_cast<int>(std::ceil(xm - half_w)));
-    const int x1 = std::min(img_k.cols - 2, static_cast<int>(std::floor(xm + half_w)));
+    const int x0 = std::max(1, static_cast<int>(std::ceil(seen[k].x_lo)));
+    const int x1 = std::min(img_k.cols - 2, static_cast<int>(std::floor(seen[k].x_hi)));
     const int y0 = std::max(1, static_cast<int>(std::ceil(std::min(y_top, y_bot))));
     const int y1 = std::min(img_k.rows - 2, static_cast<int>(std::floor(std::max(y_top, y_bot))));
     const double area = std::max(0, x1 - x0 + 1) * std::max(0, y1 - y0 + 1);
@@ -184,6 +211,7 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
         const Eigen::Vector3d p_j = j_from_world * (ck + s * w);
         if (p_j.z() <= 0.1) continue;
         const Eigen::Vector2d px = cam.ImageFromCam(p_j);
+        if (seen[j].Hidden(px.x())) continue;
         const float vj = BilinearGray(img_j, px.x(), px.y());
         if (vj < 0) continue;
         const double va = values[m];

@@ -78,6 +78,22 @@ TEST(BarkDepth, BarkBehindANearerStemIsNotCompared) {
   EXPECT_LT(d.pairs, BarkDepthOptions().min_pairs);
 }
 
+// A nearer stem beside the line of sight hides part of the bark in many views: the part it
+// leaves free is compared, and the distance is found as well.
+TEST(BarkDepth, PartlyHiddenBarkStillPlacesTheStem) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.15;
+  const std::vector<Eigen::Vector3d> occluders = {{3.0, 0.28, 0.06}};
+  const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}, occluders[0]}, true,
+                                         false, Texture::kIrregular);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray, &occluders};
+  const Start s = MovedAlongTheLineOfSight(centre, radius, 0.1);
+  const BarkDepth d =
+      MeasureBarkDepth(BarkDepthOptions(), TangentOptions(), views, s.centre, s.radius, 1.37);
+  ASSERT_TRUE(d.ok);
+  EXPECT_NEAR(d.shift_m, -0.1, 0.015);
+}
+
 TEST(BarkDepth, OptionsAreChecked) {
   EXPECT_NO_THROW(BarkDepthOptions().Check());
   BarkDepthOptions o;
