@@ -90,13 +90,12 @@ BarkView SeesBark(const TangentOptions& t, const TangentViews& v, int k, const E
   for (const Eigen::Vector3d& q : FrontOccluders(t, v, cc, (c - cc) / d, d, r)) {
     std::array<double, 2> qs;
     if (!SilhouetteColumns(cam, cam_from_world, cc, q.head<2>(), q.z(), breast_z, &qs)) continue;
-    out.occluder_cols.push_back({qs[0] - guard_px, qs[1] + guard_px});
+    const double ql = qs[0] - guard_px, qr = qs[1] + guard_px;
+    out.occluder_cols.push_back({ql, qr});
     std::vector<std::array<double, 2>> rest;
     for (const auto& [lo, hi] : free) {
-      if (out.occluder_cols.back()[0] > lo)
-        rest.push_back({lo, std::min(hi, out.occluder_cols.back()[0])});
-      if (out.occluder_cols.back()[1] < hi)
-        rest.push_back({std::max(lo, out.occluder_cols.back()[1]), hi});
+      if (ql > lo) rest.push_back({lo, std::min(hi, ql)});
+      if (qr < hi) rest.push_back({std::max(lo, qr), hi});
     }
     free = std::move(rest);
   }
@@ -122,31 +121,24 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
   std::vector<std::array<int, 2>> pairs;
   const double baseline_m = std::max(o.baseline_m, o.baseline_share * dist);
   std::vector<BarkView> seen(n_kf);
-  std::vector<char> sees(n_kf, 0);
-  for (int k = 0; k < n_kf; ++k) {
-    seen[k] = SeesBark(t, v, k, c, r, breast_z, o.inner_share);
-    sees[k] = seen[k].sees;
-  }
+  for (int k = 0; k < n_kf; ++k) seen[k] = SeesBark(t, v, k, c, r, breast_z, o.inner_share);
   double cam_dist_sum = 0;
   int cam_dist_n = 0;
   for (int k = 0; k < n_kf; ++k) {
-    if (!sees[k]) continue;
+    if (!seen[k].sees) continue;
     const Eigen::Vector3d ck = (*v.keyframes)[k].world_from_cam.translation;
     cam_dist_sum += (c - ck.head<2>()).norm();
     ++cam_dist_n;
+    const auto apart = [&](int i) {
+      return ((*v.keyframes)[i].world_from_cam.translation - ck).head<2>().norm();
+    };
     for (int dir : {-1, 1}) {
       int j = k + dir;
-      while (j >= 0 && j < n_kf &&
-             ((*v.keyframes)[j].world_from_cam.translation - ck).head<2>().norm() < baseline_m) {
-        j += dir;
-      }
+      while (j >= 0 && j < n_kf && apart(j) < baseline_m) j += dir;
       // Short of the baseline where the bark is hidden or out of the picture there, down to
       // the shortest baseline.
-      const auto apart = [&](int i) {
-        return ((*v.keyframes)[i].world_from_cam.translation - ck).head<2>().norm();
-      };
       j = std::clamp(j, 0, n_kf - 1);
-      while (j != k && !(sees[j] && apart(j) >= o.min_baseline_m)) j -= dir;
+      while (j != k && !(seen[j].sees && apart(j) >= o.min_baseline_m)) j -= dir;
       if (j != k) pairs.push_back({k, j});
     }
   }
