@@ -346,9 +346,16 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   }
   double r = r0, rms = rms0;
   Eigen::Vector2d c = c0;
-  if (!FitCircle(slice, &c, &r, &rms) || 2 * r > o.max_diameter_m) {
+  // The slice is a thin arc of the stem's face, and a circle fit to it can settle on a much
+  // larger circle bulging the other way (its centre in front of the face): the band's circle
+  // then stands.
+  std::vector<double> slice_ranges;
+  for (const Eigen::Vector2d& p : slice) slice_ranges.push_back(p.norm());
+  const double face_m = Quantile(slice_ranges, 0.5);
+  if (!FitCircle(slice, &c, &r, &rms) || 2 * r > o.max_diameter_m || c.norm() < face_m) {
     c = c0;
     r = r0;
+    rms = rms0;
   }
   s.dbh_circle_m = 2 * r;
   s.dbh_slice_m = SliceWidth(slice, c);

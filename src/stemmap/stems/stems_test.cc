@@ -205,6 +205,42 @@ TEST(Stems, NearTrunkWithStrayPointsAboveIsVertical) {
   EXPECT_LT(res.stems[0].lean_deg, 5.0);
 }
 
+// A near trunk whose breast-height slice came out flattened and bowed toward the cameras (as
+// stereo on a thin near stem can): a circle fitted to that slice alone bulges the other way, its
+// centre in front of the face. The band's circle stands instead.
+TEST(Stems, ASliceBowedTowardTheCamerasKeepsTheBandsCircle) {
+  Rng rng(9);
+  std::vector<dense::CloudPoint> cloud;
+  const Eigen::Vector3d origin(0, 0, 1.3);
+  auto add = [&](const Eigen::Vector3d& p) {
+    cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
+  };
+  for (int i = 0; i < 60000; ++i) {
+    add(Eigen::Vector3d(rng.Uniform(-12, 12), rng.Uniform(-12, 12), rng.Normal(0, 0.01)));
+  }
+  const Eigen::Vector2d c(0.54, 2.0);
+  const double r = 0.0825, bearing = std::atan2(c.y(), c.x());
+  const Eigen::Vector2d toward = -c.normalized(), across(-toward.y(), toward.x());
+  for (int i = 0; i < 20000; ++i) {
+    const double a = rng.Uniform(-1.1, 1.1), z = rng.Uniform(0.9, 1.8);
+    if (std::abs(z - 1.37) < 0.06) {
+      // The slice: the face's width, on a circle of 0.45 m whose centre lies toward the cameras.
+      const double w = r * std::sin(a);
+      const double bow = 0.45 - std::sqrt(0.45 * 0.45 - w * w);
+      const Eigen::Vector2d q = c + toward * (r * std::cos(1.1) + bow) + across * w;
+      add(Eigen::Vector3d(q.x(), q.y(), z));
+    } else {
+      const double phi = bearing + M_PI + a;
+      add(Eigen::Vector3d(c.x() + r * std::cos(phi), c.y() + r * std::sin(phi), z));
+    }
+  }
+  const GroundGrid ground(cloud, 13, 0.5);
+  const StemsResult res = DetectStems(StemOptions(), cloud, ground, 500.0);
+  ASSERT_EQ(res.stems.size(), 1u);
+  EXPECT_LT((res.stems[0].centre_xy - c).norm(), 0.03);
+  EXPECT_NEAR(res.stems[0].dbh_circle_m, 2 * r, 0.03);
+}
+
 // Two trunks 4 m out, one upright and one leaning 11°: both are found, the leaning one left for
 // two-sided silhouettes to confirm (weak_support), the upright one not.
 TEST(Stems, ALeaningPartNeedsConfirming) {
