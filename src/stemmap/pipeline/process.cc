@@ -270,7 +270,12 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
   auto refine = [&](stems::Stem s) {
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
     const double r0 = CloudRadius(s);
-    stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z);
+    auto on_bark = [&](const stems::TangentFit& candidate) {
+      stems::TangentFit copy = candidate;
+      CheckFitOnBark(o.bark_depth, topt, views, breast_z, &copy);
+      return copy.ok;
+    };
+    stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark);
     const double px_m = s.centre_xy.norm() / camera.fx;
     const stems::BarkDepth bark = CheckFitOnBark(o.bark_depth, topt, views, breast_z, &f);
     spdlog::debug(

@@ -309,6 +309,20 @@ std::vector<Eigen::Vector3d> FrontOccluders(const TangentOptions& o, const Tange
 
 // Image columns (ascending) of the silhouettes of the vertical circle (centre, r) at height z
 // seen from a camera at cc; false when a silhouette lies behind the camera.
+bool BesideNearerStem(const std::vector<Eigen::Vector3d>& stems, const Eigen::Vector2d& c, double r,
+                      double min_gap_m) {
+  const double d = c.norm();
+  if (d <= r) return false;
+  const double half = std::asin(r / d), bearing = std::atan2(c.y(), c.x());
+  for (const Eigen::Vector3d& q : stems) {
+    const double dq = q.head<2>().norm();
+    if (dq >= d - r - min_gap_m || dq <= q.z()) continue;
+    const double apart = std::abs(std::remainder(std::atan2(q.y(), q.x()) - bearing, 2 * M_PI));
+    if (apart - std::asin(q.z() / dq) - half < 2 * half) return true;
+  }
+  return false;
+}
+
 bool SilhouetteColumns(const PinholeCamera& cam, const Rigid3d& cam_from_world,
                        const Eigen::Vector2d& cc, const Eigen::Vector2d& centre, double r, double z,
                        std::array<double, 2>* xs) {

@@ -42,6 +42,11 @@ std::vector<Eigen::Vector3d> FrontOccluders(const TangentOptions& o, const Tange
                                             const Eigen::Vector2d& cc, const Eigen::Vector2d& u,
                                             double d, double r);
 
+// Whether a nearer stem (x, y, radius), seen from the plot centre, shows within the stem (c, r)'s
+// own angular width of it (gap or overlap); stems within min_gap_m of its distance do not count.
+bool BesideNearerStem(const std::vector<Eigen::Vector3d>& stems, const Eigen::Vector2d& c, double r,
+                      double min_gap_m);
+
 // Image columns (ascending) of the silhouettes of the vertical circle (centre, r) at height z
 // seen from a camera at cc; false when a silhouette lies behind the camera.
 bool SilhouetteColumns(const PinholeCamera& cam, const Rigid3d& cam_from_world,

@@ -364,7 +364,8 @@ bool FitPooledSilhouettes(const TangentOptions& o, const std::vector<const Tange
 std::optional<TangentFit> FitSeenInFewViews(const TangentOptions& o,
                                             const std::vector<const TangentFit*>& ok_fits,
                                             const Eigen::Vector2d& centre0, double radius0,
-                                            double px_m) {
+                                            double px_m,
+                                            const std::function<bool(const TangentFit&)>& accept) {
   const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
   const double widest_shift =
       o.sideways_start_shifts.empty() ? 0.0 : *std::ranges::max_element(o.sideways_start_shifts);
@@ -375,12 +376,22 @@ std::optional<TangentFit> FitSeenInFewViews(const TangentOptions& o,
            std::abs(across.dot(f.centre - centre0)) <
                std::max(o.max_sideways_m, (widest_shift + 1.0) * radius0);
   };
-  const TangentFit* best = nullptr;
+  // Best first (most two-sided views, then most rays); only one the other evidence accepts
+  // stands: the one with the most two-sided views may be a circle beside the stem that the bark
+  // rejects, where another it accepts is the stem.
+  std::vector<const TangentFit*> standing;
   for (const TangentFit* f : ok_fits) {
-    if (!stands(*f)) continue;
-    if (!best || f->two_sided_views > best->two_sided_views ||
-        (f->two_sided_views == best->two_sided_views && f->rays > best->rays)) {
+    if (stands(*f)) standing.push_back(f);
+  }
+  std::stable_sort(standing.begin(), standing.end(), [](const TangentFit* a, const TangentFit* b) {
+    return a->two_sided_views > b->two_sided_views ||
+           (a->two_sided_views == b->two_sided_views && a->rays > b->rays);
+  });
+  const TangentFit* best = nullptr;
+  for (const TangentFit* f : standing) {
+    if (!accept || accept(*f)) {
       best = f;
+      break;
     }
   }
   if (!best) return std::nullopt;
@@ -391,7 +402,8 @@ std::optional<TangentFit> FitSeenInFewViews(const TangentOptions& o,
 }
 
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
-                          const Eigen::Vector2d& centre0, double radius0, double breast_z) {
+                          const Eigen::Vector2d& centre0, double radius0, double breast_z,
+                          const std::function<bool(const TangentFit&)>& accept) {
   TangentFit fit = FitTangentRaysFrom(o, v, centre0, radius0, radius0, breast_z);
   const double px_m = centre0.norm() / v.camera->fx;
   // Most views two-sided: the start was right, unless a wider start settles on a wider circle
@@ -427,7 +439,12 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                          other.radius_m > o.narrow_min_share * radius0;
     if (trusted && (!fit.ok || 2 * other.two_sided_views >= 3 * fit.two_sided_views)) fit = other;
   };
-  for (double scale : o.narrow_start_scales) {
+  // Seen from the plot centre just beside a nearer stem, the cloud saw part of the stem at most:
+  // its width is a lower bound, and a narrower start has nothing to correct (natural-2's 24.3-cm
+  // stem beside a nearer one read 9.6 cm from it).
+  const bool beside_nearer =
+      v.occluders && BesideNearerStem(*v.occluders, centre0, radius0, o.occluder_min_gap_m);
+  for (double scale : beside_nearer ? std::vector<double>{} : o.narrow_start_scales) {
     tried.push_back(FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z));
     take_if_clearly_better(tried.back());
   }
@@ -455,7 +472,7 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
   }
   if (o.few_views_min_two_sided > 0 && !fit.ok) {
     if (const std::optional<TangentFit> few =
-            FitSeenInFewViews(o, ok_fits, centre0, radius0, px_m)) {
+            FitSeenInFewViews(o, ok_fits, centre0, radius0, px_m, accept)) {
       return *few;
     }
   }

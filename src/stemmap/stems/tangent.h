@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -136,10 +137,11 @@ bool FitPooledSilhouettes(const TangentOptions& o, const std::vector<const Tange
 // radius0 and within the sideways starts' reach (its own silhouettes only: pooled with the
 // others', a short arc's poorly held depth lets a far-off pair of edges drag it). None when no
 // start gives one.
-std::optional<TangentFit> FitSeenInFewViews(const TangentOptions& o,
-                                            const std::vector<const TangentFit*>& ok_fits,
-                                            const Eigen::Vector2d& centre0, double radius0,
-                                            double px_m);
+// `accept`, when given, must accept the fit too (the best it accepts stands).
+std::optional<TangentFit> FitSeenInFewViews(
+    const TangentOptions& o, const std::vector<const TangentFit*>& ok_fits,
+    const Eigen::Vector2d& centre0, double radius0, double px_m,
+    const std::function<bool(const TangentFit&)>& accept = {});
 
 // Blurs the keyframe images in place as `o.blur_sigma_px` says (before FitTangentRays).
 void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);
@@ -147,8 +149,11 @@ void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
 // The circle found stays within max_sideways_m (or the radius a start supposes, radius0 or a wide
 // one) of centre0 across the line of sight and within 0.5 m of it.
+// `accept`, when given, judges a fit on other evidence (e.g. the bark, bark_depth.h): a stem seen
+// two-sided in few views takes the best of the starts' fits that it accepts (FitSeenInFewViews).
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
-                          const Eigen::Vector2d& centre0, double radius0, double breast_z);
+                          const Eigen::Vector2d& centre0, double radius0, double breast_z,
+                          const std::function<bool(const TangentFit&)>& accept = {});
 
 // Where a disagreement profile first rises above tau going from `start` in direction dir (+1 or
 // -1) and stays above it on average over the next `run` samples: bark that the warp misaligns on

@@ -9,6 +9,7 @@
 #include "stemmap/camera/camera.h"
 #include "stemmap/core/pose.h"
 #include "stemmap/core/rng.h"
+#include "stemmap/stems/silhouette.h"
 #include "stemmap/stems/test_scene.h"
 
 namespace stemmap::stems {
@@ -257,6 +258,18 @@ TEST(Tangent, FitsAStemStraightBehindANearerOne) {
   EXPECT_LT(2 * fit.two_sided_views, fit.tried_views);
 }
 
+// Seen from the plot centre, a nearer stem's outline within the stem's own width of its outline.
+TEST(Tangent, BesideANearerStem) {
+  const std::vector<Eigen::Vector3d> near = {{5.0, 0.0, 0.2}};
+  // 0.2 m at 5 m spans ±2.3°; a 0.15-m stem at 9 m ±0.95°, so it is beside it out to
+  // 2.3 + 3 × 0.95 = 5.1° (0.80 m across at 9 m).
+  EXPECT_TRUE(BesideNearerStem(near, {9.0, 0.0}, 0.15, 0.5));   // straight behind
+  EXPECT_TRUE(BesideNearerStem(near, {9.0, 0.70}, 0.15, 0.5));  // a gap of 1.7° beside it
+  EXPECT_FALSE(BesideNearerStem(near, {9.0, 0.95}, 0.15, 0.5));
+  EXPECT_FALSE(BesideNearerStem(near, {4.0, 0.3}, 0.15, 0.5));   // nearer itself
+  EXPECT_FALSE(BesideNearerStem(near, {5.4, 0.45}, 0.15, 0.5));  // as far, within the gap
+}
+
 // The cloud saw only one half of the stem (a nearer one hid the rest from the stereo pairs): its
 // width is half the stem's and its centre off to one side. The wide start finds both silhouettes.
 TEST(Tangent, FitsAStemStartedFromHalfItsWidth) {
@@ -420,6 +433,20 @@ TEST(Tangent, AStemSeenInFewViewsStandsOnItsTwoSidedViews) {
   EXPECT_LT((fit->centre - centre).norm(), 0.02);
   EXPECT_EQ(fit->two_sided_views, 4);
   EXPECT_EQ(fit->rays, 9);
+  // Other evidence (the bark) rejecting that fit: the next best that stands is taken, or none.
+  TangentFit fewer = seen;
+  fewer.two_sided_views = 3;
+  fewer.radius_m = 0.05;
+  const std::optional<TangentFit> next =
+      FitSeenInFewViews(o, {&furrows, &loose, &seen, &fewer}, centre, 0.032, px_m,
+                        [](const TangentFit& f) { return f.two_sided_views != 4; });
+  ASSERT_TRUE(next.has_value());
+  EXPECT_EQ(next->two_sided_views, 3);
+  EXPECT_NEAR(next->radius_m, 0.05, 1e-12);
+  EXPECT_FALSE(
+      FitSeenInFewViews(o, {&furrows, &loose, &seen}, centre, 0.032, px_m, [](const TangentFit&) {
+        return false;
+      }).has_value());
   // The sliver the cloud saw is wider than the fit: not a hidden stem.
   EXPECT_FALSE(FitSeenInFewViews(o, {&furrows, &loose, &seen}, centre, 0.07, px_m).has_value());
   TangentOptions stricter = o;
