@@ -440,8 +440,8 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     if (trusted && (!fit.ok || 2 * other.two_sided_views >= 3 * fit.two_sided_views)) fit = other;
   };
   // Seen from the plot centre just beside a nearer stem, the cloud saw part of the stem at most:
-  // its width is a lower bound, and a narrower start has nothing to correct (natural-2's 24.3-cm
-  // stem beside a nearer one read 9.6 cm from it).
+  // its width is a lower bound, and a narrower start has nothing to correct (it settles on bark
+  // inside the stem, under half its width).
   const bool beside_nearer =
       v.occluders && BesideNearerStem(*v.occluders, centre0, radius0, o.occluder_min_gap_m);
   for (double scale : beside_nearer ? std::vector<double>{} : o.narrow_start_scales) {
