@@ -212,6 +212,16 @@ void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
   }
 }
 
+bool StandsOnItsOwnSilhouettes(const stems::TangentOptions& o, const stems::TangentFit& f,
+                               double px_m) {
+  if (!f.ok) return false;
+  // Both sides in a few views (the nearer stem hides the rest) on one circle to a couple of
+  // pixels, or many silhouettes on one circle to about a pixel: the nearer stem's edges, seen
+  // from along the arm, fan out behind it and stay tangent to no one circle there.
+  return (f.two_sided_views >= 3 && f.rms_m < 2 * px_m) ||
+         (f.rays >= 2 * o.min_rays && f.rms_m < o.narrow_max_rms_px * px_m);
+}
+
 bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vector2d& centre) {
   const double d = centre.norm();
   for (const stems::Stem& k : nearer) {
@@ -293,9 +303,8 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
     // Stereo smears a stem toward what stands behind it on the same bearing, and the smear's
     // silhouettes are the nearer stem's: a part straight behind a listed stem (its centre within
-    // that stem's width seen from the plot centre) stands only on silhouettes of its own, both
-    // sides in a few views (the nearer stem hides the rest) on one circle to a couple of pixels.
-    const bool own_silhouettes = f.ok && f.two_sided_views >= 3 && f.rms_m < 2 * px_m;
+    // that stem's width seen from the plot centre) stands only on silhouettes of its own.
+    const bool own_silhouettes = StandsOnItsOwnSilhouettes(o.tangent, f, px_m);
     if (!own_silhouettes && InShadowOfNearerStem(kept, f.ok ? f.centre : s.centre_xy)) {
       spdlog::debug("stems: ({:.2f}, {:.2f}) dropped: straight behind a listed stem, no clean fit",
                     s.centre_xy.x(), s.centre_xy.y());

@@ -123,6 +123,11 @@ void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
 // centre: farther than its far side and within its angular width.
 bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vector2d& centre);
 
+// Whether a fit rests on silhouettes of its stem's own, not on a nearer stem's edges (`px_m`: one
+// pixel's footprint at the stem).
+bool StandsOnItsOwnSilhouettes(const stems::TangentOptions& o, const stems::TangentFit& fit,
+                               double px_m);
+
 // The tangent fit checked on the bark: its distance from the bark (returned), and a fit whose bark
 // lines up at no distance (correlation under min_surface_ncc over enough pairs) or best at the end
 // of the search (beyond it, likely) fails.

@@ -65,6 +65,30 @@ TEST(InShadowOfNearerStem, APointStraightBehindAListedStem) {
   EXPECT_FALSE(InShadowOfNearerStem({}, {-2.96, 5.66}));
 }
 
+// What may stand straight behind a nearer stem: both sides in three views on one circle, or
+// many silhouettes (managed-2's 37.7-cm stem: 26, both sides in two views) to within a pixel.
+TEST(StandsOnItsOwnSilhouettes, TwoSidedViewsOrManyTightSilhouettes) {
+  const stems::TangentOptions o;
+  const double px_m = 0.006;
+  stems::TangentFit f;
+  f.ok = true;
+  f.rays = 26;
+  f.two_sided_views = 2;
+  f.rms_m = 0.0043;
+  EXPECT_TRUE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.rms_m = 0.009;  // 1.5 px
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.two_sided_views = 3;
+  EXPECT_TRUE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.two_sided_views = 1;
+  f.rms_m = 0.0042;
+  f.rays = 9;  // managed-1's stem hidden behind a 39-cm one 2.7 m out
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.rays = 26;
+  f.ok = false;
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
+}
+
 TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
   // A 27.8-cm stem, and a 17.8-cm fit that moved 0.47 m from its points to touch it; a third
   // stem 0.46 m from the first, and a far one that moved as much, stay.

@@ -401,6 +401,41 @@ std::optional<TangentFit> FitSeenInFewViews(const TangentOptions& o,
   return *best;
 }
 
+bool SettledFitReplaces(const TangentOptions& o, const TangentFit& few, const TangentFit& settled,
+                        const Eigen::Vector2d& centre0, double radius0) {
+  // A nearer stem hides sides at every radius, so one fewer view with both is no sign of a worse
+  // circle; a looser or less supported one is.
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
+  const double widest_shift =
+      o.sideways_start_shifts.empty() ? 0.0 : *std::ranges::max_element(o.sideways_start_shifts);
+  return settled.ok && settled.rays + 1 >= few.rays &&
+         settled.two_sided_views + 1 >= few.two_sided_views && settled.rms_m <= few.rms_m &&
+         settled.radius_m > o.few_views_min_share * radius0 &&
+         settled.radius_m < o.WidestFitScale() * radius0 &&
+         std::abs(across.dot(settled.centre - centre0)) <
+             std::max(o.max_sideways_m, (widest_shift + 1.0) * radius0);
+}
+
+namespace {
+
+// Its start's rounds may end before the circle settles (a start too narrow or to the side finds a
+// little more of the stem each round): more rounds from the chosen circle search where it
+// predicts the silhouettes.
+TangentFit SettleFewViewsFit(const TangentOptions& o, const TangentViews& v, const TangentFit& few,
+                             const Eigen::Vector2d& centre0, double radius0, double breast_z,
+                             const std::function<bool(const TangentFit&)>& accept) {
+  if (!o.settle_few_views) return few;
+  const TangentFit settled = FitTangentRaysFrom(o, v, few.centre, radius0, few.radius_m, breast_z);
+  const bool replaces =
+      SettledFitReplaces(o, few, settled, centre0, radius0) && (!accept || accept(settled));
+  spdlog::debug("tangent: few-views fit settled{} ({:.2f}, {:.2f}) r {:.3f}: {} rays, {} two-sided",
+                replaces ? "" : " (not kept)", settled.centre.x(), settled.centre.y(),
+                settled.radius_m, settled.rays, settled.two_sided_views);
+  return replaces ? settled : few;
+}
+
+}  // namespace
+
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z,
                           const std::function<bool(const TangentFit&)>& accept) {
@@ -473,7 +508,7 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
   if (o.few_views_min_two_sided > 0 && !fit.ok) {
     if (const std::optional<TangentFit> few =
             FitSeenInFewViews(o, ok_fits, centre0, radius0, px_m, accept)) {
-      return *few;
+      return SettleFewViewsFit(o, v, *few, centre0, radius0, breast_z, accept);
     }
   }
   if (!fit.ok || o.pooled_min_extra_rays < 0) return fit;

@@ -72,6 +72,9 @@ struct TangentOptions {
   // cloud's width: the stereo pairs see a sliver of a hidden stem, never more than all of it.
   int few_views_min_two_sided = 3;
   double few_views_min_share = 0.9;
+  // Such a fit is searched again from its own circle (its start's rounds may end before it
+  // settles) and replaced when as tight, on as many silhouettes (one fewer at most).
+  bool settle_few_views = true;
   // The largest radius, as a multiple of radius0, that a fit from these starts may reach:
   // a little beyond the widest (a fit grows from its start), and 2.5 without wide starts.
   double WidestFitScale() const {
@@ -142,6 +145,12 @@ std::optional<TangentFit> FitSeenInFewViews(
     const TangentOptions& o, const std::vector<const TangentFit*>& ok_fits,
     const Eigen::Vector2d& centre0, double radius0, double px_m,
     const std::function<bool(const TangentFit&)>& accept = {});
+
+// Whether `settled`, searched again from the circle of `few` (a FitSeenInFewViews fit), replaces
+// it: as tight, on as many silhouettes and two-sided views (one fewer at most), within the same
+// bounds on its radius and place.
+bool SettledFitReplaces(const TangentOptions& o, const TangentFit& few, const TangentFit& settled,
+                        const Eigen::Vector2d& centre0, double radius0);
 
 // Blurs the keyframe images in place as `o.blur_sigma_px` says (before FitTangentRays).
 void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);

@@ -29,6 +29,7 @@ void to_json(nlohmann::json& j, const TangentOptions& o) {
        {"pooled_min_extra_rays", o.pooled_min_extra_rays},
        {"few_views_min_two_sided", o.few_views_min_two_sided},
        {"few_views_min_share", o.few_views_min_share},
+       {"settle_few_views", o.settle_few_views},
        {"refine_on_brightness", o.refine_on_brightness},
        {"blur_sigma_px", o.blur_sigma_px}};
 }

@@ -454,6 +454,44 @@ TEST(Tangent, AStemSeenInFewViewsStandsOnItsTwoSidedViews) {
   EXPECT_FALSE(FitSeenInFewViews(stricter, {&furrows, &seen}, centre, 0.032, px_m).has_value());
 }
 
+// A 37.7-cm stem 9 m out, half behind a nearer one: the few-views fit from a start on the
+// cloud's sliver was still widening when its rounds ended (30.2 cm); searched again from its
+// circle it settles (37.6 cm) on as many silhouettes, both sides in one view fewer. A refit that
+// loses silhouettes, loosens, or runs past the widest start does not replace it.
+TEST(Tangent, ASettledFewViewsFitReplacesOneStillWidening) {
+  const TangentOptions o;
+  const Eigen::Vector2d centre0(7.87, -4.32);
+  TangentFit few;
+  few.ok = true;
+  few.centre = {7.745, -4.429};
+  few.radius_m = 0.151;
+  few.rms_m = 0.0053;
+  few.rays = 27;
+  few.two_sided_views = 3;
+  TangentFit settled = few;
+  settled.centre = {7.848, -4.535};
+  settled.radius_m = 0.188;
+  settled.rms_m = 0.0043;
+  settled.rays = 26;
+  settled.two_sided_views = 2;
+  EXPECT_TRUE(SettledFitReplaces(o, few, settled, centre0, 0.100));
+  TangentFit fewer_rays = settled;
+  fewer_rays.rays = 22;
+  EXPECT_FALSE(SettledFitReplaces(o, few, fewer_rays, centre0, 0.100));
+  TangentFit one_sided = settled;
+  one_sided.two_sided_views = 1;
+  EXPECT_FALSE(SettledFitReplaces(o, few, one_sided, centre0, 0.100));
+  TangentFit looser = settled;
+  looser.rms_m = 0.0060;
+  EXPECT_FALSE(SettledFitReplaces(o, few, looser, centre0, 0.100));
+  TangentFit too_wide = settled;
+  too_wide.radius_m = 0.3;  // beyond 2.75 times the cloud's radius
+  EXPECT_FALSE(SettledFitReplaces(o, few, too_wide, centre0, 0.100));
+  TangentFit failed = settled;
+  failed.ok = false;
+  EXPECT_FALSE(SettledFitReplaces(o, few, failed, centre0, 0.100));
+}
+
 // A near stem whose fit is right from the start: the wider start settles on the same circle, and
 // the check leaves the fit as it was (it replaces only a fit that a wider start beats cleanly).
 TEST(Tangent, AWiderStartLeavesARightFitAlone) {
