@@ -468,6 +468,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"min_bark_gap_m", o.min_bark_gap_m},
        {"max_lean_deg", o.stems.max_lean_deg},
        {"confirm_lean_deg", o.stems.confirm_lean_deg},
+       {"free_space_veto", o.stems.free_space_veto},
        {"write_report", o.write_report},
        {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},

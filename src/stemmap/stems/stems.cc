@@ -30,6 +30,9 @@ void StemOptions::Check() const {
   if (!(weak_support_share >= 0 && weak_support_share <= 1)) {
     throw InputError("weak_support_share must be in [0, 1]");
   }
+  if (!(free_space_veto > 0 && free_space_veto <= 1)) {
+    throw InputError("free_space_veto must be in (0, 1]");
+  }
 }
 
 nlohmann::json StemsResult::Summary() const {

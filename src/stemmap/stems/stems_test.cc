@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
 
 namespace stemmap::stems {
@@ -85,6 +86,18 @@ std::vector<dense::CloudPoint> TwoTrunksAndAGhost() {
         Eigen::Vector3d(0, 0, 1.3));
   }
   return cloud;
+}
+
+TEST(StemOptions, CheckRejectsOutOfRangeValues) {
+  StemOptions o;
+  EXPECT_NO_THROW(o.Check());
+  o.free_space_veto = 0;
+  EXPECT_THROW(o.Check(), InputError);
+  o.free_space_veto = 1.2;
+  EXPECT_THROW(o.Check(), InputError);
+  o = StemOptions();
+  o.dbh_method = "girth";
+  EXPECT_THROW(o.Check(), InputError);
 }
 
 TEST(Stems, DetectsTrunksAndVetoesAGhost) {
