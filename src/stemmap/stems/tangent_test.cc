@@ -5,6 +5,7 @@
 
 #include <Eigen/Geometry>
 #include <functional>
+#include <utility>
 
 #include "stemmap/camera/camera.h"
 #include "stemmap/core/pose.h"
@@ -475,21 +476,18 @@ TEST(Tangent, ASettledFewViewsFitReplacesOneStillWidening) {
   settled.rays = 26;
   settled.two_sided_views = 2;
   EXPECT_TRUE(SettledFitReplaces(o, few, settled, centre0, 0.100));
-  TangentFit fewer_rays = settled;
-  fewer_rays.rays = 22;
-  EXPECT_FALSE(SettledFitReplaces(o, few, fewer_rays, centre0, 0.100));
-  TangentFit one_sided = settled;
-  one_sided.two_sided_views = 1;
-  EXPECT_FALSE(SettledFitReplaces(o, few, one_sided, centre0, 0.100));
-  TangentFit looser = settled;
-  looser.rms_m = 0.0060;
-  EXPECT_FALSE(SettledFitReplaces(o, few, looser, centre0, 0.100));
-  TangentFit too_wide = settled;
-  too_wide.radius_m = 0.3;  // beyond 2.75 times the cloud's radius
-  EXPECT_FALSE(SettledFitReplaces(o, few, too_wide, centre0, 0.100));
-  TangentFit failed = settled;
-  failed.ok = false;
-  EXPECT_FALSE(SettledFitReplaces(o, few, failed, centre0, 0.100));
+  const std::vector<std::pair<const char*, std::function<void(TangentFit&)>>> worse = {
+      {"fewer silhouettes", [](TangentFit& f) { f.rays = 22; }},
+      {"both sides in one view", [](TangentFit& f) { f.two_sided_views = 1; }},
+      {"looser", [](TangentFit& f) { f.rms_m = 0.0060; }},
+      {"beyond 2.75 times the cloud's radius", [](TangentFit& f) { f.radius_m = 0.3; }},
+      {"no fit", [](TangentFit& f) { f.ok = false; }}};
+  for (const auto& [what, change] : worse) {
+    SCOPED_TRACE(what);
+    TangentFit refit = settled;
+    change(refit);
+    EXPECT_FALSE(SettledFitReplaces(o, few, refit, centre0, 0.100));
+  }
 }
 
 // A near stem whose fit is right from the start: the wider start settles on the same circle, and
