@@ -361,20 +361,31 @@ bool FitPooledSilhouettes(const TangentOptions& o, const std::vector<const Tange
   return true;
 }
 
+namespace {
+
+// A few-views fit's bounds: no narrower than the cloud's sliver (a share of it), no wider than
+// the widest start reaches, and within the sideways starts' reach across the line of sight.
+bool WithinFewViewsBounds(const TangentOptions& o, const TangentFit& f,
+                          const Eigen::Vector2d& centre0, double radius0) {
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
+  const double widest_shift =
+      o.sideways_start_shifts.empty() ? 0.0 : *std::ranges::max_element(o.sideways_start_shifts);
+  return f.radius_m > o.few_views_min_share * radius0 &&
+         f.radius_m < o.WidestFitScale() * radius0 &&
+         std::abs(across.dot(f.centre - centre0)) <
+             std::max(o.max_sideways_m, (widest_shift + 1.0) * radius0);
+}
+
+}  // namespace
+
 std::optional<TangentFit> FitSeenInFewViews(const TangentOptions& o,
                                             const std::vector<const TangentFit*>& ok_fits,
                                             const Eigen::Vector2d& centre0, double radius0,
                                             double px_m,
                                             const std::function<bool(const TangentFit&)>& accept) {
-  const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
-  const double widest_shift =
-      o.sideways_start_shifts.empty() ? 0.0 : *std::ranges::max_element(o.sideways_start_shifts);
   auto stands = [&](const TangentFit& f) {
     return f.ok && f.two_sided_views >= o.few_views_min_two_sided &&
-           f.rms_m < o.narrow_max_rms_px * px_m && f.radius_m > o.few_views_min_share * radius0 &&
-           f.radius_m < o.WidestFitScale() * radius0 &&
-           std::abs(across.dot(f.centre - centre0)) <
-               std::max(o.max_sideways_m, (widest_shift + 1.0) * radius0);
+           f.rms_m < o.narrow_max_rms_px * px_m && WithinFewViewsBounds(o, f, centre0, radius0);
   };
   // Best first (most two-sided views, then most rays); only one the other evidence accepts
   // stands: the one with the most two-sided views may be a circle beside the stem that the bark
@@ -405,15 +416,9 @@ bool SettledFitReplaces(const TangentOptions& o, const TangentFit& few, const Ta
                         const Eigen::Vector2d& centre0, double radius0) {
   // A nearer stem hides sides at every radius, so one fewer view with both is no sign of a worse
   // circle; a looser or less supported one is.
-  const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
-  const double widest_shift =
-      o.sideways_start_shifts.empty() ? 0.0 : *std::ranges::max_element(o.sideways_start_shifts);
   return settled.ok && settled.rays + 1 >= few.rays &&
          settled.two_sided_views + 1 >= few.two_sided_views && settled.rms_m <= few.rms_m &&
-         settled.radius_m > o.few_views_min_share * radius0 &&
-         settled.radius_m < o.WidestFitScale() * radius0 &&
-         std::abs(across.dot(settled.centre - centre0)) <
-             std::max(o.max_sideways_m, (widest_shift + 1.0) * radius0);
+         WithinFewViewsBounds(o, settled, centre0, radius0);
 }
 
 namespace {
