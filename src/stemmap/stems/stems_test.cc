@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <string>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
@@ -89,15 +90,24 @@ std::vector<dense::CloudPoint> TwoTrunksAndAGhost() {
 }
 
 TEST(StemOptions, CheckRejectsOutOfRangeValues) {
+  // The message Check() gives, or "" when the options pass.
+  auto message = [](const StemOptions& o) -> std::string {
+    try {
+      o.Check();
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
   StemOptions o;
-  EXPECT_NO_THROW(o.Check());
+  EXPECT_EQ(message(o), "");
   o.free_space_veto = 0;
-  EXPECT_THROW(o.Check(), InputError);
+  EXPECT_EQ(message(o), "free_space_veto must be in (0, 1]");
   o.free_space_veto = 1.2;
-  EXPECT_THROW(o.Check(), InputError);
+  EXPECT_EQ(message(o), "free_space_veto must be in (0, 1]");
   o = StemOptions();
   o.dbh_method = "girth";
-  EXPECT_THROW(o.Check(), InputError);
+  EXPECT_EQ(message(o), "DBH method 'girth' is not tangent, slice or circle");
 }
 
 TEST(Stems, DetectsTrunksAndVetoesAGhost) {
