@@ -235,6 +235,14 @@ bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vect
   return false;
 }
 
+bool BarkConfirmsCloud(const stems::Stem& part, const stems::TangentFit& fit,
+                       const stems::BarkDepth& cloud_bark) {
+  const bool two_sided_often =
+      fit.two_sided_views >= std::max(3, fit.tried_views / 4) && fit.rays > 0;
+  return !fit.ok && !part.weak_support && two_sided_often && cloud_bark.ok &&
+         !cloud_bark.at_search_end;
+}
+
 stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::TangentOptions& t,
                                 const stems::TangentViews& views, double breast_z,
                                 stems::TangentFit* fit) {
@@ -293,7 +301,18 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
         "{} tried, rms {:.1f} mm, at ({:.3f}, {:.3f})",
         s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
         f.tried_views, 1000 * f.rms_m, f.centre.x(), f.centre.y());
-    const SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m);
+    SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m);
+    if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
+      const stems::BarkDepth cloud_bark =
+          stems::MeasureBarkDepth(o.bark_depth, topt, views, s.centre_xy, r0, breast_z);
+      if (BarkConfirmsCloud(s, f, cloud_bark)) {
+        spdlog::debug(
+            "stems: ({:.2f}, {:.2f}) kept on its cloud: the bark lines up {:+.3f} m off it",
+            s.centre_xy.x(), s.centre_xy.y(), cloud_bark.shift_m);
+        s.centre_xy += cloud_bark.shift_m * s.centre_xy.normalized();
+        verdict = SilhouetteVerdict::kKeepCloud;
+      }
+    }
     if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == "tangent") {
       s.flags.push_back(f.ok && f.two_sided_views < 3 ? "one_sided" : "no_silhouette");
     }
@@ -461,6 +480,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"breast_height_m", o.stems.breast_height_m},
        {"dbh_method", o.stems.dbh_method},
        {"require_silhouette", o.require_silhouette},
+       {"keep_bark_confirmed_cloud", o.keep_bark_confirmed_cloud},
        {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
        {"one_sided_min_cloud_radius_m", o.one_sided_min_cloud_radius_m},
        {"min_core_share", o.min_core_share},

@@ -29,6 +29,10 @@ struct ProcessOptions {
   // a leaf clump rarely does). On the simulated plots it removes only false stems (see
   // benchmarks.md); --keep-unconfirmed turns it off.
   bool require_silhouette = true;
+  // Unless the fit failed only on the bark (BarkConfirmsCloud): a stem standing in front of a
+  // wider one shows its silhouettes against that one's bark, and a fit to them can settle on the
+  // stem behind, where the bark does not line up; the part's own circle, where it does, stays.
+  bool keep_bark_confirmed_cloud = true;
   // Silhouettes on one side only cannot tell how far the stem reaches on the other: such a fit
   // wider than this many times the cloud's width keeps the cloud's (see benchmarks.md), unless
   // its rays agree to about a pixel and the cloud saw at least this radius (a stem half hidden by
@@ -89,6 +93,13 @@ enum class SilhouetteVerdict {
 // `px_m` is one pixel's footprint at the stem's distance.
 SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& stem,
                                      const stems::TangentFit& fit, double px_m);
+
+// Whether a part whose silhouette fit failed is a stem all the same, kept on its cloud: its
+// silhouettes were found on both sides in a quarter of the views tried (a trunk's two edges; a
+// shrub or sapling seldom shows them so), it was not weakly supported, and the views warped
+// through its own cloud circle line up (`cloud_bark` ok and not at the end of its search).
+bool BarkConfirmsCloud(const stems::Stem& part, const stems::TangentFit& fit,
+                       const stems::BarkDepth& cloud_bark);
 
 // Drops the stems whose bark comes within `min_bark_gap_m` of another's (ProcessOptions), the
 // one whose fit moved farther from its points (Stem::fit_shift_m) first. Returns how many.

@@ -89,6 +89,43 @@ TEST(StandsOnItsOwnSilhouettes, TwoSidedViewsOrManyTightSilhouettes) {
   EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
 }
 
+TEST(BarkConfirmsCloud, TwoSidedSilhouettesAndBarkOnTheCloudsCircle) {
+  // natural-5's 16.4-cm stem in front of a 35.8-cm one 2 m behind it: the fit settled on the far
+  // stem, where the bark did not line up; on the cloud's circle it does, 6 cm nearer.
+  stems::Stem part;
+  stems::TangentFit f;
+  f.ok = false;
+  f.rays = 49;
+  f.two_sided_views = 20;
+  f.tried_views = 49;
+  stems::BarkDepth bark;
+  bark.ok = true;
+  bark.shift_m = -0.056;
+  bark.peak_ncc = 0.95;
+  EXPECT_TRUE(BarkConfirmsCloud(part, f, bark));
+  // Rejections, one at a time: a fit that stood, too few two-sided views (a sapling's twigs),
+  // a weakly supported part, bark that lines up nowhere or only at the end of its search.
+  struct Case {
+    const char* what;
+    std::function<void(stems::Stem*, stems::TangentFit*, stems::BarkDepth*)> change;
+  };
+  const std::vector<Case> cases = {
+      {"fit ok", [](auto*, auto* fit, auto*) { fit->ok = true; }},
+      {"two-sided in 7 of 45",
+       [](auto*, auto* fit, auto*) { fit->two_sided_views = 7, fit->tried_views = 45; }},
+      {"no silhouette", [](auto*, auto* fit, auto*) { fit->rays = 0; }},
+      {"weak support", [](auto* p, auto*, auto*) { p->weak_support = true; }},
+      {"no bark", [](auto*, auto*, auto* b) { b->ok = false; }},
+      {"bark at the end", [](auto*, auto*, auto* b) { b->at_search_end = true; }}};
+  for (const Case& c : cases) {
+    stems::Stem p2 = part;
+    stems::TangentFit f2 = f;
+    stems::BarkDepth b2 = bark;
+    c.change(&p2, &f2, &b2);
+    EXPECT_FALSE(BarkConfirmsCloud(p2, f2, b2)) << c.what;
+  }
+}
+
 TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
   // A 27.8-cm stem, and a 17.8-cm fit that moved 0.47 m from its points to touch it; a third
   // stem 0.46 m from the first, and a far one that moved as much, stay.
