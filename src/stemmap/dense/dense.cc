@@ -28,6 +28,9 @@ void DenseOptions::Check() const {
   if (!(near_min_depth_m > 0 && near_max_depth_m > near_min_depth_m)) {
     throw InputError("near stereo depths must be positive and increasing");
   }
+  if (short_baseline_max_depth_m != 0 && !(short_baseline_max_depth_m > near_max_depth_m)) {
+    throw InputError("the short-baseline depth limit must be 0 or beyond the near pairs' range");
+  }
 }
 
 namespace {
@@ -130,9 +133,10 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
     const auto [a, b, stereo] = pairs[i];
     const cv::Mat &ia = in.images[a], &ib = in.images[b];
     if (ia.empty() || ib.empty()) continue;
-    std::vector<CloudPoint> pts =
-        StereoPairPoints(*stereo, ia, ib, in.camera, in.keyframes[a].world_from_cam,
-                         in.keyframes[b].world_from_cam, a);
+    const bool near = stereo == &near_stereo;
+    std::vector<CloudPoint> pts = StereoPairPoints(
+        *stereo, ia, ib, in.camera, in.keyframes[a].world_from_cam, in.keyframes[b].world_from_cam,
+        a, near ? o.short_baseline_max_depth_m : 0.0, near ? &r.short_baseline_points : nullptr);
     if (in.mask_model != nullptr) {
       LabelTrunkPoints(in.mask_model->Predict(ia), in.camera, in.keyframes[a].world_from_cam, &pts);
       ++masked;
@@ -145,7 +149,10 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
   if (r.pairs == 0) throw ProcessingError("no keyframe images found for stereo (timestamps?)");
   const double wall =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  r.summary = {{"pairs", r.pairs}, {"points", r.points.size()}, {"wall_s", wall}};
+  r.summary = {{"pairs", r.pairs},
+               {"points", r.points.size()},
+               {"short_baseline_points", r.short_baseline_points.size()},
+               {"wall_s", wall}};
   if (in.mask_model != nullptr) {
     const auto on_trunk = std::count_if(r.points.begin(), r.points.end(),
                                         [](const CloudPoint& p) { return p.trunk == 1; });

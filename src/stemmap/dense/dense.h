@@ -20,6 +20,11 @@ struct DenseOptions {
   double near_pair_turn_deg = 5.0;
   double near_min_depth_m = 0.5;
   double near_max_depth_m = 2.5;
+  // What those pairs see beyond near_max_depth_m, up to this (0: not kept): a third of the
+  // baseline makes it coarse, but keyframes 5° apart both see a stem that a nearer one leaves in
+  // view for only a few degrees of turn, where pairs 14° apart do not. Used only to find stems
+  // the cloud missed (DenseResult::short_baseline_points).
+  double short_baseline_max_depth_m = 12.0;
   void Check() const;
 };
 
@@ -34,6 +39,8 @@ struct DenseInput {
 
 struct DenseResult {
   std::vector<CloudPoint> points;  // plot frame
+  // The near pairs' points beyond near_max_depth_m (DenseOptions::short_baseline_max_depth_m).
+  std::vector<CloudPoint> short_baseline_points;
   int pairs = 0;
   double depth_focal_px = 0.0;  // focal length of the depth images at the points' spacing
   nlohmann::json summary;

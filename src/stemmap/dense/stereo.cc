@@ -25,7 +25,8 @@ void StereoOptions::Check() const {
 std::vector<CloudPoint> StereoPairPoints(const StereoOptions& o, const cv::Mat& bgr_a,
                                          const cv::Mat& bgr_b, const PinholeCamera& cam_full,
                                          const Rigid3d& world_from_a, const Rigid3d& world_from_b,
-                                         int keyframe_a) {
+                                         int keyframe_a, double beyond_max_depth_m,
+                                         std::vector<CloudPoint>* beyond) {
   const PinholeCamera cam = cam_full.Scaled(o.scale);
   const cv::Size size(cam.width, cam.height);
   cv::Mat small_a, small_b;
@@ -77,9 +78,14 @@ std::vector<CloudPoint> StereoPairPoints(const StereoOptions& o, const cv::Mat& 
     for (int x = 0; x < xyz.cols; x += o.pixel_step) {
       if (!(dp[x] > 0.5f)) continue;
       const Eigen::Vector3d p_rect(pp[x][0], pp[x][1], pp[x][2]);
-      if (!(p_rect.z() > o.min_depth_m && p_rect.z() < o.max_depth_m)) continue;
+      if (!(p_rect.z() > o.min_depth_m)) continue;
+      std::vector<CloudPoint>* to = &out;
+      if (!(p_rect.z() < o.max_depth_m)) {
+        if (beyond == nullptr || !(p_rect.z() < beyond_max_depth_m)) continue;
+        to = beyond;
+      }
       const Eigen::Vector3d p_world = world_from_left * (left_from_rect * p_rect);
-      out.push_back({p_world.cast<float>(), origin, cp[x], keyframe_a});
+      to->push_back({p_world.cast<float>(), origin, cp[x], keyframe_a});
     }
   }
   return out;

@@ -35,9 +35,11 @@ struct CloudPoint {
 };
 
 // Depth points of one pair, in the world frame of the poses. `cam` is the images' camera.
+// Points deeper than o.max_depth_m, up to beyond_max_depth_m, go to `beyond` when given.
 std::vector<CloudPoint> StereoPairPoints(const StereoOptions& o, const cv::Mat& bgr_a,
                                          const cv::Mat& bgr_b, const PinholeCamera& cam,
                                          const Rigid3d& world_from_a, const Rigid3d& world_from_b,
-                                         int keyframe_a);
+                                         int keyframe_a, double beyond_max_depth_m = 0.0,
+                                         std::vector<CloudPoint>* beyond = nullptr);
 
 }  // namespace stemmap::dense

@@ -37,6 +37,10 @@ void ProcessOptions::Check() const {
   if (!(min_bark_gap_m >= 0 && min_bark_gap_m < 1)) {
     throw InputError("the smallest gap between two stems' bark must lie in [0, 1) m");
   }
+  if (!(larger_cloud_part_gap_m >= 0)) {
+    throw InputError(
+        "the gap within which a larger cloud's part joins a stem must not be negative");
+  }
   if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
     throw InputError(
         "the share of a part's width below which its cores are tried must lie in [0, 1]");
@@ -139,6 +143,7 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
                         std::vector<stems::Stem>* kept) {
   PartOutcome out;
   std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
+  std::vector<stems::Stem> larger = std::exchange(part.larger_cloud_part, {});
   const double part_dbh_m = 2 * CloudRadius(part);
   auto [verdict, s, clean, whole] = refine(std::move(part));
   // A fit far narrower than a smeared part with several cores may be one of stems standing
@@ -192,9 +197,23 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
   if (from_cores > 0) return out;
   if (verdict == SilhouetteVerdict::kKeepCloud) {
     kept->push_back(std::move(s));
-  } else {
-    out.dropped = 1;
+    return out;
   }
+  // The larger cloud's part stands in when its silhouettes are clean (both sides in a quarter of
+  // its views, on one circle to a couple of pixels), placed and sized by them or by its cloud.
+  if (!larger.empty()) {
+    RefinedStem r = refine(std::move(larger.front()));
+    if (r.verdict != SilhouetteVerdict::kDrop && r.clean) {
+      spdlog::debug("stems: part ({:.2f}, {:.2f}) replaced by the larger cloud's", s.centre_xy.x(),
+                    s.centre_xy.y());
+      kept->push_back(std::move(r.stem));
+      out.fitted = 1;
+      return out;
+    }
+    spdlog::debug("stems: the larger cloud's part for ({:.2f}, {:.2f}): verdict {} clean {}",
+                  s.centre_xy.x(), s.centre_xy.y(), static_cast<int>(r.verdict), r.clean);
+  }
+  out.dropped = 1;
   return out;
 }
 
@@ -447,6 +466,15 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   timing["dense_s"] = lap();
   const stems::GroundGrid ground(dr.points, o.stems.search_radius_m + 2.0, 0.5);
   stems::StemsResult sr = stems::DetectStems(o.stems, dr.points, ground, dr.depth_focal_px);
+  if (!dr.short_baseline_points.empty()) {
+    // The short-baseline points only give a second start to parts that come to nothing; the
+    // silhouettes and the bark judge it like any other.
+    std::vector<dense::CloudPoint> all = dr.points;
+    all.insert(all.end(), dr.short_baseline_points.begin(), dr.short_baseline_points.end());
+    stems::StemsResult more = stems::DetectStems(o.stems, all, ground, dr.depth_focal_px);
+    sr.larger_cloud_parts =
+        stems::AttachLargerCloudParts(std::move(more.stems), o.larger_cloud_part_gap_m, &sr.stems);
+  }
   timing["stems_s"] = lap();
   RefineWithTangentRays(o, tr, std::move(tr.keyframe_gray_full), din.images, &sr.stems);
   timing["tangent_rays_s"] = lap();
@@ -493,6 +521,8 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"from_track", o.from_track.string()},
        {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
        {"near_stereo_pair_turn_deg", o.dense.near_pair_turn_deg},
+       {"short_baseline_max_depth_m", o.dense.short_baseline_max_depth_m},
+       {"larger_cloud_part_gap_m", o.larger_cloud_part_gap_m},
        {"tangent", o.tangent},
        {"bark_depth", o.bark_depth},
        {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});

@@ -50,6 +50,9 @@ struct ProcessOptions {
   // twice (a fit that slid along its line of sight onto a nearer stem's silhouette): the one
   // whose fit moved farther from its points is dropped.
   double min_bark_gap_m = 0.02;
+  // A stem found with the short-baseline points too (DenseOptions::short_baseline_max_depth_m)
+  // within this of a part of the cloud is that part's second start (Stem::larger_cloud_part).
+  double larger_cloud_part_gap_m = 0.1;
   // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
   // camera are used instead of tracking again; empty: track the video.
   std::filesystem::path from_track;

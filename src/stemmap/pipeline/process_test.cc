@@ -184,6 +184,32 @@ TEST(ResolvePart, AFitFarNarrowerThanASmearedPartGivesWayToItsCores) {
   EXPECT_EQ(out.from_cores, 2);
 }
 
+TEST(ResolvePart, APartThatComesToNothingGivesWayToTheLargerCloudsClean) {
+  // A sliver of a stem the silhouettes drop; the larger cloud's part of it fits cleanly, or not.
+  for (const bool clean : {true, false}) {
+    stems::Stem part = Fitted(4.99, -4.49, 0.188, 0.0);
+    part.larger_cloud_part = {Fitted(4.98, -4.58, 0.308, 0.0)};
+    std::vector<stems::Stem> kept;
+    const PartOutcome out = ResolvePart(
+        {}, part,
+        [&](stems::Stem s) {
+          const bool larger = s.dbh_m > 0.3;
+          return RefinedStem{larger ? SilhouetteVerdict::kKeepCloud : SilhouetteVerdict::kDrop,
+                             std::move(s), larger && clean, false};
+        },
+        &kept);
+    if (clean) {
+      ASSERT_EQ(kept.size(), 1u);
+      EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.308);
+      EXPECT_EQ(out.fitted, 1);
+      EXPECT_EQ(out.dropped, 0);
+    } else {
+      EXPECT_TRUE(kept.empty());
+      EXPECT_EQ(out.dropped, 1);
+    }
+  }
+}
+
 TEST(ResolvePart, OneCoreAloneDoesNotReplaceThePartsFit) {
   InLine c;
   c.fitting = {{8.2, -0.1}};
@@ -378,6 +404,14 @@ TEST(ProcessOptions, AOneSidedBoundBelowTheCloudIsRejected) {
   o = ProcessOptions();
   o.narrow_fit_share = -0.1;
   EXPECT_THROW(o.Check(), InputError);
+  o = ProcessOptions();
+  o.larger_cloud_part_gap_m = -0.1;
+  EXPECT_THROW(o.Check(), InputError);
+  o = ProcessOptions();
+  o.dense.short_baseline_max_depth_m = 2.0;  // inside the near pairs' own range
+  EXPECT_THROW(o.Check(), InputError);
+  o.dense.short_baseline_max_depth_m = 0.0;  // none
+  EXPECT_NO_THROW(o.Check());
 }
 
 // The widest tangent start supposes 2.2 times the cloud's width; a fit that grew a little

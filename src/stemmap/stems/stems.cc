@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -40,7 +41,36 @@ nlohmann::json StemsResult::Summary() const {
           {"components", components},
           {"rejected_size", rejected_size},
           {"rejected_vertical", rejected_vertical},
-          {"vetoed_free_space", vetoed_free_space}};
+          {"vetoed_free_space", vetoed_free_space},
+          {"larger_cloud_parts", larger_cloud_parts}};
+}
+
+int AttachLargerCloudParts(std::vector<Stem> more, double gap_m, std::vector<Stem>* found) {
+  std::vector<double> attached_at(found->size(), std::numeric_limits<double>::infinity());
+  for (Stem& m : more) {
+    int best = -1;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (size_t k = 0; k < found->size(); ++k) {
+      const Stem& f = (*found)[k];
+      const double d = (m.centre_xy - f.centre_xy).norm();
+      if (d - 0.5 * (m.dbh_m + f.dbh_m) < gap_m && d < best_d)
+        best = static_cast<int>(k), best_d = d;
+    }
+    if (best < 0 || best_d >= attached_at[best]) continue;
+    Stem& f = (*found)[best];
+    const bool differs = best_d > 0.05 || std::abs(m.dbh_m - f.dbh_m) > 0.2 * f.dbh_m;
+    spdlog::debug(
+        "stems: larger cloud's part at ({:.2f}, {:.2f}) dbh {:.3f} for ({:.2f}, {:.2f}) dbh "
+        "{:.3f}: {}",
+        m.centre_xy.x(), m.centre_xy.y(), m.dbh_m, f.centre_xy.x(), f.centre_xy.y(), f.dbh_m,
+        differs ? "kept" : "the same");
+    if (!differs) continue;
+    m.alternatives.clear();
+    f.larger_cloud_part = {std::move(m)};
+    attached_at[best] = best_d;
+  }
+  return static_cast<int>(
+      std::ranges::count_if(*found, [](const Stem& f) { return !f.larger_cloud_part.empty(); }));
 }
 
 bool FitCircle(const std::vector<Eigen::Vector2d>& pts, Eigen::Vector2d* centre, double* radius,

@@ -78,13 +78,23 @@ struct Stem {
   std::vector<std::string> flags;
   // For a depth-smeared part: the stems its denser cores make, when it has two or more.
   std::vector<Stem> alternatives;
+  // The same stem as a larger cloud gave it (AttachLargerCloudParts), tried when this part comes
+  // to nothing: its points may show the stem whole where this part is a sliver of it.
+  std::vector<Stem> larger_cloud_part;
 };
 
 struct StemsResult {
   std::vector<Stem> stems;
   int components = 0, rejected_size = 0, rejected_vertical = 0, vetoed_free_space = 0;
+  int larger_cloud_parts = 0;  // AttachLargerCloudParts
   nlohmann::json Summary() const;
 };
+
+// Each stem of `more` (found in a larger cloud) that overlaps a stem of `found` (their circles
+// within gap_m of each other) and differs from it (centres 5 cm or widths 20 % apart) becomes
+// the nearest such stem's Stem::larger_cloud_part, unless it already has one nearer. Returns
+// how many were attached.
+int AttachLargerCloudParts(std::vector<Stem> more, double gap_m, std::vector<Stem>* found);
 
 // Stems from the fused cloud: occupancy of the band above the ground, connected parts, a
 // verticality test, a free-space veto from the points' rays, then DBH at breast height.

@@ -41,6 +41,28 @@ StemsResult DetectWithoutBearingSplit(const std::vector<dense::CloudPoint>& clou
   return DetectStems(o, cloud, ground);
 }
 
+Stem At(double x, double y, double dbh_m) {
+  Stem s;
+  s.centre_xy = {x, y};
+  s.dbh_m = dbh_m;
+  return s;
+}
+
+TEST(AttachLargerCloudParts, AnOverlappingPartThatDiffersJoinsTheNearestStem) {
+  // managed-1's 31.9-cm stem: the cloud saw an 18.8-cm sliver of it, the larger cloud 30.8 cm.
+  std::vector<Stem> found = {At(4.99, -4.49, 0.188), At(1.88, -1.90, 0.343), At(8.0, 0.0, 0.3)};
+  const std::vector<Stem> more = {
+      At(4.98, -4.58, 0.308),  // differs: joins the sliver
+      At(1.88, -1.90, 0.344),  // the same stem as found: nothing to add
+      At(8.0, 0.9, 0.3),       // a stem of its own, 0.6 m clear of any: not attached
+      At(5.40, -4.49, 0.2)};   // overlaps the sliver too, but farther than the first
+  EXPECT_EQ(AttachLargerCloudParts(more, 0.1, &found), 1);
+  ASSERT_EQ(found[0].larger_cloud_part.size(), 1u);
+  EXPECT_DOUBLE_EQ(found[0].larger_cloud_part[0].dbh_m, 0.308);
+  EXPECT_TRUE(found[1].larger_cloud_part.empty());
+  EXPECT_TRUE(found[2].larger_cloud_part.empty());
+}
+
 TEST(Stems, CircleFromAnArc) {
   Rng rng(1);
   std::vector<Eigen::Vector2d> pts;
