@@ -396,6 +396,9 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
     AcrossWidthCircle(slice, &c, &r);
     s.dbh_circle_m = s.dbh_slice_m = 2 * r;
     s.depth_smeared = true;
+    // No circle to spread about: the width rests on its outermost bearings, each good to about
+    // a depth pixel at that range.
+    rms = depth_focal_px > 0 ? c.norm() / depth_focal_px : 0.0;
   }
   s.pass_through = PassThroughRatio(b.points, c, r);
   if (s.pass_through > o.free_space_veto) {

@@ -218,6 +218,10 @@ TEST(Stems, SmearedFarTrunkIsKeptByItsWidthAcross) {
   EXPECT_NEAR(std::atan2(s.centre_xy.y(), s.centre_xy.x()), bearing, 0.005);
   EXPECT_NEAR(s.centre_xy.norm(), range + r, 0.3);
   EXPECT_NEAR(s.dbh_slice_m, 2 * r, 0.05);
+  // Its DBH is as good as a depth pixel there (the width's ends), not the spread of no circle.
+  const StemsResult coarse = DetectStems(StemOptions(), cloud, ground, 100.0);
+  ASSERT_EQ(coarse.stems.size(), 1u);
+  EXPECT_NEAR(coarse.stems[0].dbh_sd_m, coarse.stems[0].centre_xy.norm() / 100.0, 1e-9);
 }
 
 // A near trunk seen only up to 1.6 m (its top is out of view), with a few stray points joined to
