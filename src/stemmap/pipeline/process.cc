@@ -145,7 +145,7 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
   std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
   std::vector<stems::Stem> larger = std::exchange(part.larger_cloud_part, {});
   const double part_dbh_m = 2 * CloudRadius(part);
-  auto [verdict, s, clean, whole] = refine(std::move(part));
+  auto [verdict, s, clean, whole, agrees] = refine(std::move(part));
   // A fit far narrower than a smeared part with several cores may be one of stems standing
   // one behind another: the cores decide, when two or more of them fit on their own.
   const bool narrow_in_wide = verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
@@ -200,10 +200,13 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
     return out;
   }
   // The larger cloud's part stands in when its silhouettes are clean (both sides in a quarter of
-  // its views, on one circle to a couple of pixels), placed and sized by them or by its cloud.
+  // its views, on one circle to a couple of pixels), placed and sized by them, or by its cloud
+  // when they agree with its width (a sapling's smeared points are far wider than its edges).
   if (!larger.empty()) {
     RefinedStem r = refine(std::move(larger.front()));
-    if (r.verdict != SilhouetteVerdict::kDrop && r.clean) {
+    const bool stands = r.verdict == SilhouetteVerdict::kUse ||
+                        (r.verdict == SilhouetteVerdict::kKeepCloud && r.agrees_with_cloud);
+    if (stands && r.clean) {
       spdlog::debug("stems: part ({:.2f}, {:.2f}) replaced by the larger cloud's", s.centre_xy.x(),
                     s.centre_xy.y());
       kept->push_back(std::move(r.stem));
@@ -349,7 +352,8 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
     }
     if (verdict != SilhouetteVerdict::kUse) {
-      return RefinedStem{verdict, std::move(s), clean, whole};
+      const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
+      return RefinedStem{verdict, std::move(s), clean, whole, agrees};
     }
     // The silhouettes' views replace the cloud's count.
     std::erase(s.flags, std::string("few_views"));
@@ -377,7 +381,8 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }
-    return RefinedStem{verdict, std::move(s), clean, whole};
+    return RefinedStem{verdict, std::move(s), clean, whole,
+                       f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0};
   };
   PartOutcome total;
   // Nearest first (the detector's order): a farther stem's edge search then stops at the nearer

@@ -115,6 +115,8 @@ struct RefinedStem {
   stems::Stem stem;
   bool clean = false;
   bool whole = false;
+  // Whether the silhouettes' circle agrees with the cloud's width (within a fifth of it).
+  bool agrees_with_cloud = false;
 };
 struct PartOutcome {
   int fitted = 0;      // stems placed by their silhouettes

@@ -186,7 +186,8 @@ TEST(ResolvePart, AFitFarNarrowerThanASmearedPartGivesWayToItsCores) {
 
 TEST(ResolvePart, APartThatComesToNothingGivesWayToTheLargerCloudsClean) {
   // A sliver of a stem the silhouettes drop; the larger cloud's part of it fits cleanly, or not.
-  for (const bool clean : {true, false}) {
+  // On its cloud only where the silhouettes agree with the cloud's width.
+  for (const auto& [clean, agrees] : {std::pair{true, true}, {false, true}, {true, false}}) {
     stems::Stem part = Fitted(4.99, -4.49, 0.188, 0.0);
     part.larger_cloud_part = {Fitted(4.98, -4.58, 0.308, 0.0)};
     std::vector<stems::Stem> kept;
@@ -195,10 +196,10 @@ TEST(ResolvePart, APartThatComesToNothingGivesWayToTheLargerCloudsClean) {
         [&](stems::Stem s) {
           const bool larger = s.dbh_m > 0.3;
           return RefinedStem{larger ? SilhouetteVerdict::kKeepCloud : SilhouetteVerdict::kDrop,
-                             std::move(s), larger && clean, false};
+                             std::move(s), larger && clean, false, larger && agrees};
         },
         &kept);
-    if (clean) {
+    if (clean && agrees) {
       ASSERT_EQ(kept.size(), 1u);
       EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.308);
       EXPECT_EQ(out.fitted, 1);
