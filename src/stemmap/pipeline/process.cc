@@ -342,6 +342,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges).
     const bool clean = f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m;
     const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
+    const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
     // Stereo smears a stem toward what stands behind it on the same bearing, and the smear's
     // silhouettes are the nearer stem's: a part straight behind a listed stem (its centre within
     // that stem's width seen from the plot centre) stands only on silhouettes of its own.
@@ -352,7 +353,6 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
     }
     if (verdict != SilhouetteVerdict::kUse) {
-      const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
       return RefinedStem{verdict, std::move(s), clean, whole, agrees};
     }
     // The silhouettes' views replace the cloud's count.
@@ -381,8 +381,7 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }
-    return RefinedStem{verdict, std::move(s), clean, whole,
-                       f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0};
+    return RefinedStem{verdict, std::move(s), clean, whole, agrees};
   };
   PartOutcome total;
   // Nearest first (the detector's order): a farther stem's edge search then stops at the nearer
