@@ -4,6 +4,7 @@
 
 #include <algorithm>
 
+#include "stemmap/core/check_message.h"
 #include "stemmap/core/error.h"
 #include "stemmap/stems/test_scene.h"
 
@@ -408,24 +409,16 @@ TEST(ProcessOptions, AOneSidedBoundBelowTheCloudIsRejected) {
 }
 
 TEST(ProcessOptions, TheLargerCloudsSettingsAreChecked) {
-  // The message Check() gives, or "" when the options pass.
-  auto message = [](const ProcessOptions& o) -> std::string {
-    try {
-      o.Check();
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "";
-  };
   ProcessOptions o;
   o.larger_cloud_part_gap_m = -0.1;
-  EXPECT_EQ(message(o),
+  EXPECT_EQ(CheckMessage(o),
             "the gap within which a larger cloud's part joins a stem must not be negative");
   o = ProcessOptions();
   o.dense.short_baseline_max_depth_m = 2.0;  // inside the near pairs' own range
-  EXPECT_EQ(message(o), "the short-baseline depth limit must be 0 or beyond the near pairs' range");
+  EXPECT_EQ(CheckMessage(o),
+            "the short-baseline depth limit must be 0 or beyond the near pairs' range");
   o.dense.short_baseline_max_depth_m = 0.0;  // none
-  EXPECT_EQ(message(o), "");
+  EXPECT_EQ(CheckMessage(o), "");
 }
 
 // The widest tangent start supposes 2.2 times the cloud's width; a fit that grew a little

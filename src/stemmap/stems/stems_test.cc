@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <string>
 
+#include "stemmap/core/check_message.h"
 #include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
 
@@ -112,24 +113,15 @@ std::vector<dense::CloudPoint> TwoTrunksAndAGhost() {
 }
 
 TEST(StemOptions, CheckRejectsOutOfRangeValues) {
-  // The message Check() gives, or "" when the options pass.
-  auto message = [](const StemOptions& o) -> std::string {
-    try {
-      o.Check();
-    } catch (const InputError& e) {
-      return e.what();
-    }
-    return "";
-  };
   StemOptions o;
-  EXPECT_EQ(message(o), "");
+  EXPECT_EQ(CheckMessage(o), "");
   o.free_space_veto = 0;
-  EXPECT_EQ(message(o), "free_space_veto must be in (0, 1]");
+  EXPECT_EQ(CheckMessage(o), "free_space_veto must be in (0, 1]");
   o.free_space_veto = 1.2;
-  EXPECT_EQ(message(o), "free_space_veto must be in (0, 1]");
+  EXPECT_EQ(CheckMessage(o), "free_space_veto must be in (0, 1]");
   o = StemOptions();
   o.dbh_method = "girth";
-  EXPECT_EQ(message(o), "DBH method 'girth' is not tangent, slice or circle");
+  EXPECT_EQ(CheckMessage(o), "DBH method 'girth' is not tangent, slice or circle");
 }
 
 TEST(Stems, DetectsTrunksAndVetoesAGhost) {

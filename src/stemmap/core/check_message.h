@@ -1,0 +1,20 @@
+#pragma once
+
+#include <string>
+
+#include "stemmap/core/error.h"
+
+namespace stemmap {
+
+// The message an options struct's Check() gives, or "" when the options pass (for tests).
+template <typename Options>
+std::string CheckMessage(const Options& o) {
+  try {
+    o.Check();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace stemmap
