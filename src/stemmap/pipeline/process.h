@@ -53,6 +53,12 @@ struct ProcessOptions {
   // A stem found with the short-baseline points too (DenseOptions::short_baseline_max_depth_m)
   // within this of a part of the cloud is that part's second start (Stem::larger_cloud_part).
   double larger_cloud_part_gap_m = 0.1;
+  // A stem of the larger cloud (vetoed by free space or not) with no part of the cloud within
+  // that gap is tried last, and listed only on sharp silhouettes: both sides in at least three
+  // views, on one circle to this many pixels rms (a nearer stem hides it for most of the turn,
+  // and its few two-sided views are all there is; clutter's edges are not tangent to one circle
+  // to a fraction of a pixel). 0: not tried.
+  double larger_cloud_only_max_rms_px = 0.5;
   // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
   // camera are used instead of tracking again; empty: track the video.
   std::filesystem::path from_track;
@@ -86,77 +92,6 @@ struct ProcessResult {
 // ...).
 ProcessResult RunProcess(const ProcessOptions& options, const std::filesystem::path& video,
                          const std::filesystem::path& out_dir);
-
-// What a silhouette fit does to a stem found in the cloud.
-enum class SilhouetteVerdict {
-  kUse,        // plausible: the fit places the stem (and gives the DBH with the tangent method)
-  kKeepCloud,  // implausible: the cloud's estimate stays, flagged no_silhouette
-  kDrop,       // implausible for a part that needed confirming: not a stem
-};
-// `px_m` is one pixel's footprint at the stem's distance.
-SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& stem,
-                                     const stems::TangentFit& fit, double px_m);
-
-// Whether a part whose silhouette fit failed is a stem all the same, kept on its cloud: its
-// silhouettes were found on both sides in a quarter of the views tried (a trunk's two edges; a
-// shrub or sapling seldom shows them so), it was not weakly supported, and the views warped
-// through its own cloud circle line up (`cloud_bark` ok and not at the end of its search).
-bool BarkConfirmsCloud(const stems::Stem& part, const stems::TangentFit& fit,
-                       const stems::BarkDepth& cloud_bark);
-
-// Drops the stems whose bark comes within `min_bark_gap_m` of another's (ProcessOptions), the
-// one whose fit moved farther from its points (Stem::fit_shift_m) first. Returns how many.
-int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems);
-
-// A stem as its silhouettes judged it; `clean`: both sides in a quarter of its views, on one
-// circle to a couple of pixels; `whole`: both sides in at least half of them.
-struct RefinedStem {
-  SilhouetteVerdict verdict = SilhouetteVerdict::kDrop;
-  stems::Stem stem;
-  bool clean = false;
-  bool whole = false;
-  // Whether the silhouettes' circle agrees with the cloud's width (within a fifth of it).
-  bool agrees_with_cloud = false;
-};
-struct PartOutcome {
-  int fitted = 0;      // stems placed by their silhouettes
-  int from_cores = 0;  // of which the part's dense cores (Stem::alternatives)
-  int dropped = 0;     // parts that are no stem
-};
-// What one part of the cloud becomes, appended to `kept`: the stem its silhouettes fit, the stems
-// its cores make, the stem of its cloud, or nothing. `refine` judges one stem by its silhouettes.
-PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
-                        const std::function<RefinedStem(stems::Stem)>& refine,
-                        std::vector<stems::Stem>* kept);
-
-// The stems that one part of the cloud became (`fitted`) replace that part's circle (x, y,
-// radius) among the occluders that farther stems' edge searches stop at; a part that became
-// nothing keeps its cloud circle.
-void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
-                          std::vector<Eigen::Vector3d>* occluders);
-
-// Whether `centre` (plot frame) lies straight behind one of the `nearer` stems seen from the plot
-// centre: farther than its far side and within its angular width.
-bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vector2d& centre);
-
-// Whether a fit rests on silhouettes of its stem's own, not on a nearer stem's edges (`px_m`: one
-// pixel's footprint at the stem).
-bool StandsOnItsOwnSilhouettes(const stems::TangentOptions& o, const stems::TangentFit& fit,
-                               double px_m);
-
-// The tangent fit checked on the bark: its distance from the bark (returned), and a fit whose bark
-// lines up at no distance (correlation under min_surface_ncc over enough pairs) or best at the end
-// of the search (beyond it, likely) fails.
-stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::TangentOptions& t,
-                                const stems::TangentViews& views, double breast_z,
-                                stems::TangentFit* fit);
-
-// Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
-// method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution
-// (blurred in place), or empty to use `bgr` at the working resolution.
-void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
-                           std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
-                           std::vector<stems::Stem>* stems);
 
 // Every estimator's DBH per stem (stems_detail.csv), to compare them tree by tree.
 void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems::Stem>& stems);

@@ -224,6 +224,8 @@ ReportSummary WriteReport(const ReportOptions& o, const ReportInput& in,
       "part of its edges; <i>one_sided</i> both edges were seen in too few views, the DBH rests "
       "on one side; <i>no_silhouette</i> no edges fitted, the DBH is the point cloud's width; "
       "<i>depth_smeared</i> a far stem placed by its width across the line of sight; "
+      "<i>silhouette_only</i> a stem nearer ones hid for most of the turn, found by its edges "
+      "alone; "
       "<i>few_views</i> fewer than 4 views measured it. Flagged stems are the ones to look "
       "at first.</p>\n<table>\n<tr><th>tree</th><th>x "
       "m</th><th>y m</th><th>distance m</th><th>azimuth &deg;</th><th>DBH cm</th><th>SD "

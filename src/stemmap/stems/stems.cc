@@ -42,7 +42,8 @@ nlohmann::json StemsResult::Summary() const {
           {"rejected_size", rejected_size},
           {"rejected_vertical", rejected_vertical},
           {"vetoed_free_space", vetoed_free_space},
-          {"larger_cloud_parts", larger_cloud_parts}};
+          {"larger_cloud_parts", larger_cloud_parts},
+          {"larger_cloud_only", larger_cloud_only}};
 }
 
 int AttachLargerCloudParts(std::vector<Stem> more, double gap_m, std::vector<Stem>* found) {
@@ -71,6 +72,24 @@ int AttachLargerCloudParts(std::vector<Stem> more, double gap_m, std::vector<Ste
   }
   return static_cast<int>(
       std::ranges::count_if(*found, [](const Stem& f) { return !f.larger_cloud_part.empty(); }));
+}
+
+std::vector<Stem> StemsAwayFrom(std::span<const Stem> more, double gap_m,
+                                std::span<const Stem> found) {
+  std::vector<Stem> away;
+  for (const Stem& m : more) {
+    const bool near = std::ranges::any_of(found, [&](const Stem& f) {
+      return (m.centre_xy - f.centre_xy).norm() - 0.5 * (m.dbh_m + f.dbh_m) < gap_m;
+    });
+    if (near) continue;
+    away.push_back(m);
+    away.back().alternatives.clear();
+    away.back().larger_cloud_part.clear();
+  }
+  std::ranges::stable_sort(away, [](const Stem& a, const Stem& b) {
+    return a.centre_xy.squaredNorm() < b.centre_xy.squaredNorm();
+  });
+  return away;
 }
 
 bool FitCircle(const std::vector<Eigen::Vector2d>& pts, Eigen::Vector2d* centre, double* radius,
@@ -286,10 +305,11 @@ struct Band {
 
 // One part of the band as a stem: centre, widths, lean and support; nullopt (counted in `tally`)
 // when it is no stem. A `smeared` part is measured across the line of sight whatever its spread
-// along it (a core of a smeared part: its depth is as noisy as the whole's).
+// along it (a core of a smeared part: its depth is as noisy as the whole's). A part the
+// free-space veto rejects goes to `vetoed` where that is given.
 std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::vector<int>& m,
                                 const GroundGrid& ground, double depth_focal_px, bool smeared,
-                                StemsResult* tally) {
+                                StemsResult* tally, std::vector<Stem>* vetoed = nullptr) {
   std::vector<Eigen::Vector2d> all_xy;
   for (int i : m) all_xy.push_back(b.points[i]->world.head<2>().cast<double>());
   Eigen::Vector2d c0;
@@ -401,12 +421,6 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
     rms = depth_focal_px > 0 ? c.norm() / depth_focal_px : 0.0;
   }
   s.pass_through = PassThroughRatio(b.points, c, r);
-  if (s.pass_through > o.free_space_veto) {
-    ++tally->vetoed_free_space;
-    spdlog::debug("stems: part at ({:.2f}, {:.2f}) vetoed: {:.0f}% of rays pass through", c.x(),
-                  c.y(), 100 * s.pass_through);
-    return std::nullopt;
-  }
   s.centre_xy = c;
   s.ground_z_m = ground.Height(c.x(), c.y());
   s.dbh_m = o.dbh_method == "circle" ? s.dbh_circle_m : s.dbh_slice_m;  // tangent: later
@@ -416,6 +430,16 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   s.lean_deg = lean_deg;
   if (lean_deg > o.confirm_lean_deg) s.weak_support = true;
   if (s.n_views < 3) s.flags.push_back("few_views");
+  if (s.pass_through > o.free_space_veto) {
+    ++tally->vetoed_free_space;
+    spdlog::debug("stems: part at ({:.2f}, {:.2f}) vetoed: {:.0f}% of rays pass through", c.x(),
+                  c.y(), 100 * s.pass_through);
+    if (vetoed) {
+      s.weak_support = true;
+      vetoed->push_back(std::move(s));
+    }
+    return std::nullopt;
+  }
   return s;
 }
 
@@ -500,7 +524,8 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
   result.components = static_cast<int>(parts.size());
   const Band b{band, band_h};
   for (const std::vector<int>& m : parts) {
-    std::optional<Stem> s = MeasurePart(o, b, m, ground, depth_focal_px, false, &result);
+    std::optional<Stem> s =
+        MeasurePart(o, b, m, ground, depth_focal_px, false, &result, &result.vetoed);
     if (!s) continue;
     if (o.split_parts_into_cores) {
       StemsResult not_counted;

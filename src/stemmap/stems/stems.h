@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -85,8 +86,11 @@ struct Stem {
 
 struct StemsResult {
   std::vector<Stem> stems;
+  // The parts the free-space veto rejected, measured as far as the veto (pass_through set).
+  std::vector<Stem> vetoed;
   int components = 0, rejected_size = 0, rejected_vertical = 0, vetoed_free_space = 0;
   int larger_cloud_parts = 0;  // AttachLargerCloudParts
+  int larger_cloud_only = 0;   // stems of the larger cloud alone, tried on their silhouettes
   nlohmann::json Summary() const;
 };
 
@@ -95,6 +99,11 @@ struct StemsResult {
 // the nearest such stem's Stem::larger_cloud_part, unless it already has one nearer. Returns
 // how many were attached.
 int AttachLargerCloudParts(std::vector<Stem> more, double gap_m, std::vector<Stem>* found);
+
+// The stems of `more` whose circles come within gap_m of no stem of `found`, nearest the plot
+// centre first, without their cores.
+std::vector<Stem> StemsAwayFrom(std::span<const Stem> more, double gap_m,
+                                std::span<const Stem> found);
 
 // Stems from the fused cloud: occupancy of the band above the ground, connected parts, a
 // verticality test, a free-space veto from the points' rays, then DBH at breast height.

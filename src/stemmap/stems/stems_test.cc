@@ -64,6 +64,21 @@ TEST(AttachLargerCloudParts, AnOverlappingPartThatDiffersJoinsTheNearestStem) {
   EXPECT_TRUE(found[2].larger_cloud_part.empty());
 }
 
+TEST(StemsAwayFrom, KeepsTheStemsClearOfEveryFoundOneNearestFirst) {
+  // natural-2's 11.4-cm stem behind a 24.3-cm one: the cloud has no part there.
+  const std::vector<Stem> found = {At(-4.44, 1.24, 0.216), At(8.0, 0.0, 0.3)};
+  std::vector<Stem> more = {
+      At(-8.46, 2.29, 0.106),  // clear of both
+      At(8.0, 0.27, 0.2),      // its bark 2 cm from the found stem's: the same stem
+      At(2.0, 1.0, 0.15)};     // clear, and nearer the centre
+  more[0].alternatives = {At(-8.45, 2.29, 0.1)};
+  const std::vector<Stem> away = StemsAwayFrom(more, 0.1, found);
+  ASSERT_EQ(away.size(), 2u);
+  EXPECT_DOUBLE_EQ(away[0].centre_xy.x(), 2.0);
+  EXPECT_DOUBLE_EQ(away[1].centre_xy.x(), -8.46);
+  EXPECT_TRUE(away[1].alternatives.empty());
+}
+
 TEST(Stems, CircleFromAnArc) {
   Rng rng(1);
   std::vector<Eigen::Vector2d> pts;
@@ -133,6 +148,13 @@ TEST(Stems, DetectsTrunksAndVetoesAGhost) {
   const StemsResult r = DetectStems(o, cloud, ground);
   ASSERT_EQ(r.stems.size(), 2u);
   EXPECT_GE(r.vetoed_free_space, 1);
+  // The ghost is kept aside, measured, for a later look at its silhouettes.
+  const auto ghost = std::ranges::find_if(
+      r.vetoed, [](const Stem& v) { return (v.centre_xy - Eigen::Vector2d(0, 6)).norm() < 0.1; });
+  ASSERT_NE(ghost, r.vetoed.end());
+  EXPECT_GT(ghost->pass_through, o.free_space_veto);
+  EXPECT_TRUE(ghost->weak_support);
+  EXPECT_NEAR(ghost->dbh_m, 0.40, 0.02);
   EXPECT_NEAR((r.stems[0].centre_xy - Eigen::Vector2d(5, 0)).norm(), 0, 0.02);
   EXPECT_NEAR(r.stems[0].dbh_m, 0.30, 0.01);
   EXPECT_NEAR(r.stems[1].dbh_m, 0.50, 0.01);

@@ -1,0 +1,401 @@
+#include "stemmap/pipeline/refine.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <utility>
+
+namespace stemmap::pipeline {
+
+namespace {
+
+// The cloud's radius of a stem: its slice's width, else the circle fitted to it.
+double CloudRadius(const stems::Stem& s) {
+  return 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
+}
+
+}  // namespace
+
+int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems) {
+  std::vector<size_t> order(stems->size());
+  std::iota(order.begin(), order.end(), 0);
+  // The farthest-moved fit is judged first; ties keep the list's order.
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return (*stems)[a].fit_shift_m > (*stems)[b].fit_shift_m;
+  });
+  std::vector<char> drop(stems->size(), 0);
+  for (size_t i : order) {
+    const stems::Stem& a = (*stems)[i];
+    for (size_t j = 0; j < stems->size() && !drop[i]; ++j) {
+      const stems::Stem& b = (*stems)[j];
+      if (j == i || drop[j] || b.fit_shift_m > a.fit_shift_m) continue;
+      const double gap = (a.centre_xy - b.centre_xy).norm() - 0.5 * (a.dbh_m + b.dbh_m);
+      if (gap < min_bark_gap_m) drop[i] = 1;
+    }
+  }
+  int dropped = 0;
+  std::vector<stems::Stem> kept;
+  for (size_t i = 0; i < stems->size(); ++i) {
+    if (drop[i]) {
+      ++dropped;
+      spdlog::debug("stems: ({:.2f}, {:.2f}) dropped: its fit moved {:.2f} m onto another stem",
+                    (*stems)[i].centre_xy.x(), (*stems)[i].centre_xy.y(), (*stems)[i].fit_shift_m);
+    } else {
+      kept.push_back(std::move((*stems)[i]));
+    }
+  }
+  *stems = std::move(kept);
+  return dropped;
+}
+
+SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& s,
+                                     const stems::TangentFit& f, double px_m) {
+  // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
+  // neighbour): keep the cloud's estimate and say so. A stem partly hidden from the stereo
+  // pairs is wider than its points: silhouettes on both sides in several views that agree to
+  // about a pixel outrank them, and a part with little surface at breast height needs them.
+  const double r0 = CloudRadius(s);
+  const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
+  const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
+  const bool wider_two_sided =
+      two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
+  const bool confirmed = !s.weak_support || two_sided;
+  // Both sides in most views, agreeing to a pixel, narrower than the points: the cloud took in
+  // what stands beside the stem (a shrub, a sapling). A furrow does not stay tangent across views.
+  const bool narrower_two_sided = two_sided && 2 * f.two_sided_views >= f.tried_views &&
+                                  f.radius_m < r0 && f.radius_m > o.tangent.narrow_min_share * r0;
+  // A fit from one side that came out wider than the points rests on nothing that can check it
+  // (an occluder's edge, the slack of a one-sided circle); a confirmed stem keeps the cloud's
+  // width.
+  const bool one_sided = f.two_sided_views < 3;
+  if (f.ok && confirmed && one_sided && f.radius_m > o.one_sided_max_over_cloud * r0) {
+    // Unless it stays tangent to one circle across views to about a pixel, on a part the cloud
+    // saw as a real stem: then a nearer stem hid the rest of it from the stereo pairs, and the
+    // one side seen is a better width than the points.
+    const bool tight = f.rms_m < 1.2 * px_m && r0 >= o.one_sided_min_cloud_radius_m &&
+                       f.radius_m < o.tangent.WidestFitScale() * r0;
+    return tight ? SilhouetteVerdict::kUse : SilhouetteVerdict::kKeepCloud;
+  }
+  // A smeared part's width across the line of sight is rough, but not off by half: a fit beyond
+  // half or twice it caught something else (a neighbour, one side of the stem), though the
+  // silhouettes it found still confirm a stem. Wider than the points, it must be two-sided like
+  // any other wider fit (a trunk just behind the stem can widen loose silhouettes).
+  const bool smeared_width =
+      f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0 && (f.radius_m <= r0 || two_sided);
+  const bool plausible = f.ok && confirmed &&
+                         (s.depth_smeared ? smeared_width || narrower_two_sided
+                                          : near_cloud || wider_two_sided || narrower_two_sided);
+  if (plausible) return SilhouetteVerdict::kUse;
+  if (f.ok && confirmed && s.depth_smeared) return SilhouetteVerdict::kKeepCloud;
+  // A smeared or weakly supported part is a stem only if silhouettes confirm it; when
+  // silhouettes are required (the default), a part where none were found is no stem either.
+  if ((o.require_silhouette && !f.ok) || s.depth_smeared || s.weak_support) {
+    return SilhouetteVerdict::kDrop;
+  }
+  return SilhouetteVerdict::kKeepCloud;
+}
+
+PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
+                        const std::function<RefinedStem(stems::Stem)>& refine,
+                        std::vector<stems::Stem>* kept) {
+  PartOutcome out;
+  std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
+  std::vector<stems::Stem> larger = std::exchange(part.larger_cloud_part, {});
+  const double part_dbh_m = 2 * CloudRadius(part);
+  auto [verdict, s, clean, whole, agrees, sharp] = refine(std::move(part));
+  // A fit far narrower than a smeared part with several cores may be one of stems standing
+  // one behind another: the cores decide, when two or more of them fit on their own.
+  const bool narrow_in_wide = verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
+                              s.dbh_tangent_m < o.narrow_fit_share * part_dbh_m;
+  if (verdict == SilhouetteVerdict::kUse && !narrow_in_wide) {
+    out.fitted = 1;
+    kept->push_back(std::move(s));
+    return out;
+  }
+  // No silhouette fits the part as a whole: it may be stems one behind another, or a stem and
+  // a shrub or sapling beside it. Each dense core is a stem when its own silhouettes fit it
+  // cleanly, clear of the stems kept so far; they replace the part. A part kept on its cloud
+  // is one stem, maybe widened by a shrub: a core far narrower than it is a piece of its bark.
+  const size_t before = kept->size();
+  const double min_core_dbh_m =
+      verdict == SilhouetteVerdict::kKeepCloud ? o.min_core_share * s.dbh_m : 0.0;
+  // Cores that overlap are one stem: the one with both sides in most views stands first.
+  std::vector<RefinedStem> refined;
+  for (stems::Stem& core : cores) refined.push_back(refine(std::move(core)));
+  std::ranges::stable_sort(
+      refined, [](const RefinedStem& a, const RefinedStem& b) { return a.whole && !b.whole; });
+  int whole_cores = 0;
+  for (RefinedStem& r : refined) {
+    stems::Stem& c = r.stem;
+    if (r.verdict != SilhouetteVerdict::kUse || !r.clean || c.dbh_m < min_core_dbh_m) continue;
+    const bool overlaps = std::ranges::any_of(*kept, [&](const stems::Stem& k) {
+      return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
+    });
+    if (!overlaps) {
+      kept->push_back(std::move(c));
+      whole_cores += r.whole;
+    }
+  }
+  const int from_cores = static_cast<int>(kept->size() - before);
+  spdlog::debug("stems: part ({:.2f}, {:.2f}) fit {:.3f} whole {}: {} of {} cores kept, {} whole",
+                s.centre_xy.x(), s.centre_xy.y(), s.dbh_m, whole, from_cores, cores.size(),
+                whole_cores);
+  // One core alone replaces the part's fit only when it shows both sides in most of its views
+  // and the part's fit does not: that fit caught what stands beside the stem.
+  const bool one_whole_core = from_cores == 1 && whole_cores == 1 && !whole;
+  if (narrow_in_wide && from_cores < 2 && !one_whole_core) {
+    // Fewer than two: the whole part's fit stands.
+    kept->resize(before);
+    out.fitted = 1;
+    kept->push_back(std::move(s));
+    return out;
+  }
+  out.fitted = out.from_cores = from_cores;
+  if (from_cores > 0) return out;
+  if (verdict == SilhouetteVerdict::kKeepCloud) {
+    kept->push_back(std::move(s));
+    return out;
+  }
+  // The larger cloud's part stands in when its silhouettes are clean (both sides in a quarter of
+  // its views, on one circle to a couple of pixels), placed and sized by them, or by its cloud
+  // when they agree with its width (a sapling's smeared points are far wider than its edges).
+  if (!larger.empty()) {
+    RefinedStem r = refine(std::move(larger.front()));
+    const bool stands = r.verdict == SilhouetteVerdict::kUse ||
+                        (r.verdict == SilhouetteVerdict::kKeepCloud && r.agrees_with_cloud);
+    if (stands && r.clean) {
+      spdlog::debug("stems: part ({:.2f}, {:.2f}) replaced by the larger cloud's", s.centre_xy.x(),
+                    s.centre_xy.y());
+      kept->push_back(std::move(r.stem));
+      out.fitted = 1;
+      return out;
+    }
+    spdlog::debug("stems: the larger cloud's part for ({:.2f}, {:.2f}): verdict {} clean {}",
+                  s.centre_xy.x(), s.centre_xy.y(), static_cast<int>(r.verdict), r.clean);
+  }
+  out.dropped = 1;
+  return out;
+}
+
+void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
+                          std::vector<Eigen::Vector3d>* occluders) {
+  for (size_t k = 0; k < fitted.size(); ++k) {
+    const stems::Stem& s = fitted[k];
+    const Eigen::Vector3d circle(s.centre_xy.x(), s.centre_xy.y(),
+                                 0.5 * (s.dbh_tangent_m > 0 ? s.dbh_tangent_m : s.dbh_m));
+    if (k == 0) {
+      (*occluders)[part] = circle;
+    } else {
+      occluders->push_back(circle);
+    }
+  }
+}
+
+int AddLargerCloudOnlyStems(const ProcessOptions& o, std::vector<stems::Stem> candidates,
+                            const std::function<RefinedStem(stems::Stem)>& refine,
+                            std::vector<stems::Stem>* kept,
+                            std::vector<Eigen::Vector3d>* occluders) {
+  int added = 0;
+  for (stems::Stem& c : candidates) {
+    const bool taken = std::ranges::any_of(*kept, [&](const stems::Stem& k) {
+      return (k.centre_xy - c.centre_xy).norm() - 0.5 * (k.dbh_m + c.dbh_m) <
+             o.larger_cloud_part_gap_m;
+    });
+    if (taken) continue;
+    RefinedStem r = refine(std::move(c));
+    spdlog::debug("stems: larger cloud's stem alone at ({:.2f}, {:.2f}): verdict {}, sharp {}",
+                  r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp);
+    if (r.verdict != SilhouetteVerdict::kUse || !r.sharp) continue;
+    r.stem.flags.push_back("silhouette_only");
+    occluders->emplace_back(r.stem.centre_xy.x(), r.stem.centre_xy.y(), 0.5 * r.stem.dbh_m);
+    kept->push_back(std::move(r.stem));
+    ++added;
+  }
+  return added;
+}
+
+bool HasSharpSilhouettes(const stems::TangentFit& f, double max_rms_px, double px_m) {
+  return f.ok && f.two_sided_views >= 3 && f.rms_m < max_rms_px * px_m;
+}
+
+bool StandsOnItsOwnSilhouettes(const stems::TangentOptions& o, const stems::TangentFit& f,
+                               double px_m) {
+  if (!f.ok) return false;
+  // Both sides in a few views (the nearer stem hides the rest) on one circle to a couple of
+  // pixels, or many silhouettes on one circle to about a pixel: the nearer stem's edges, seen
+  // from along the arm, fan out behind it and stay tangent to no one circle there.
+  return (f.two_sided_views >= 3 && f.rms_m < 2 * px_m) ||
+         (f.rays >= 2 * o.min_rays && f.rms_m < o.narrow_max_rms_px * px_m);
+}
+
+bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vector2d& centre) {
+  const double d = centre.norm();
+  for (const stems::Stem& k : nearer) {
+    const double dk = k.centre_xy.norm(), rk = 0.5 * k.dbh_m;
+    if (dk + rk >= d || dk <= rk) continue;
+    const double apart = std::abs(std::remainder(
+        std::atan2(centre.y(), centre.x()) - std::atan2(k.centre_xy.y(), k.centre_xy.x()),
+        2 * M_PI));
+    if (apart < std::asin(rk / dk)) return true;
+  }
+  return false;
+}
+
+bool BarkConfirmsCloud(const stems::Stem& part, const stems::TangentFit& fit,
+                       const stems::BarkDepth& cloud_bark) {
+  const bool two_sided_often =
+      fit.two_sided_views >= std::max(3, fit.tried_views / 4) && fit.rays > 0;
+  return !fit.ok && !part.weak_support && two_sided_often && cloud_bark.ok &&
+         !cloud_bark.at_search_end;
+}
+
+stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::TangentOptions& t,
+                                const stems::TangentViews& views, double breast_z,
+                                stems::TangentFit* fit) {
+  if (!fit->ok) return {};
+  const stems::BarkDepth bark =
+      stems::MeasureBarkDepth(o, t, views, fit->centre, fit->radius_m, breast_z);
+  if (bark.pairs >= o.min_pairs && (bark.peak_ncc < o.min_surface_ncc || bark.at_search_end)) {
+    // Views warped through the circle do not line up within reach of it: its inside is no one
+    // stem's bark (two stems and the gap between them, a shrub, a stem and what lies behind it),
+    // or the silhouettes put it far from the bark they enclose.
+    spdlog::debug("stems: ({:.2f}, {:.2f}) r {:.3f}: no bark lines up on the fit (ncc {:.2f}{})",
+                  fit->centre.x(), fit->centre.y(), fit->radius_m, bark.peak_ncc,
+                  bark.at_search_end ? " at the end of the search" : "");
+    fit->ok = false;
+  }
+  return bark;
+}
+
+void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
+                           std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
+                           std::vector<stems::Stem>* stems,
+                           std::vector<stems::Stem> larger_cloud_only) {
+  // Silhouettes at the video's own resolution where the front end kept it, else the working one.
+  std::vector<cv::Mat> gray = std::move(gray_full);
+  PinholeCamera camera = tr.camera;
+  if (!gray.empty() && !gray[0].empty()) {
+    camera = tr.camera.Scaled(static_cast<double>(gray[0].cols) / tr.camera.width);
+  } else {
+    gray.assign(bgr.size(), cv::Mat());
+    for (size_t k = 0; k < bgr.size(); ++k) {
+      if (!bgr[k].empty()) cv::cvtColor(bgr[k], gray[k], cv::COLOR_BGR2GRAY);
+    }
+  }
+  stems::PrepareTangentImages(o.tangent, &gray);
+  std::vector<Eigen::Vector3d> occluders;
+  for (const stems::Stem& s : *stems) {
+    occluders.emplace_back(s.centre_xy.x(), s.centre_xy.y(), 0.5 * s.dbh_m);
+  }
+  const stems::TangentViews views{&camera, &tr.keyframes, &gray, &occluders};
+  const stems::TangentOptions topt =
+      o.tangent.ForImageScale(static_cast<double>(camera.width) / tr.camera.width);
+  std::vector<stems::Stem> kept;  // nearest first
+  // The silhouettes' verdict on one stem, and the stem as then reported.
+  auto refine = [&](stems::Stem s) {
+    const double breast_z = s.ground_z_m + o.stems.breast_height_m;
+    const double r0 = CloudRadius(s);
+    auto on_bark = [&](const stems::TangentFit& candidate) {
+      stems::TangentFit copy = candidate;
+      CheckFitOnBark(o.bark_depth, topt, views, breast_z, &copy);
+      return copy.ok;
+    };
+    stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark);
+    const double px_m = s.centre_xy.norm() / camera.fx;
+    const stems::BarkDepth bark = CheckFitOnBark(o.bark_depth, topt, views, breast_z, &f);
+    spdlog::debug(
+        "tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {} two-sided {} of "
+        "{} tried, rms {:.1f} mm, at ({:.3f}, {:.3f})",
+        s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
+        f.tried_views, 1000 * f.rms_m, f.centre.x(), f.centre.y());
+    SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m);
+    if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
+      const stems::BarkDepth cloud_bark =
+          stems::MeasureBarkDepth(o.bark_depth, topt, views, s.centre_xy, r0, breast_z);
+      if (BarkConfirmsCloud(s, f, cloud_bark)) {
+        spdlog::debug(
+            "stems: ({:.2f}, {:.2f}) kept on its cloud: the bark lines up {:+.3f} m off it",
+            s.centre_xy.x(), s.centre_xy.y(), cloud_bark.shift_m);
+        s.centre_xy += cloud_bark.shift_m * s.centre_xy.normalized();
+        verdict = SilhouetteVerdict::kKeepCloud;
+      }
+    }
+    if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == "tangent") {
+      s.flags.push_back(f.ok && f.two_sided_views < 3 ? "one_sided" : "no_silhouette");
+    }
+    // A core stands alone only on clean silhouettes: both sides in a quarter of its views, on
+    // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges).
+    const bool clean = f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m;
+    const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
+    const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
+    const bool sharp = HasSharpSilhouettes(f, o.larger_cloud_only_max_rms_px, px_m);
+    // Stereo smears a stem toward what stands behind it on the same bearing, and the smear's
+    // silhouettes are the nearer stem's: a part straight behind a listed stem (its centre within
+    // that stem's width seen from the plot centre) stands only on silhouettes of its own.
+    const bool own_silhouettes = StandsOnItsOwnSilhouettes(o.tangent, f, px_m);
+    if (!own_silhouettes && InShadowOfNearerStem(kept, f.ok ? f.centre : s.centre_xy)) {
+      spdlog::debug("stems: ({:.2f}, {:.2f}) dropped: straight behind a listed stem, no clean fit",
+                    s.centre_xy.x(), s.centre_xy.y());
+      return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
+    }
+    if (verdict != SilhouetteVerdict::kUse) {
+      return RefinedStem{verdict, std::move(s), clean, whole, agrees, sharp};
+    }
+    // The silhouettes' views replace the cloud's count.
+    std::erase(s.flags, std::string("few_views"));
+    if (f.views < 4) s.flags.push_back("few_views");
+    if (s.depth_smeared) s.flags.push_back("depth_smeared");
+    // Over a quarter of the silhouettes beside a nearer stem: the width rests on the rest.
+    if (4 * f.hidden_sides > 2 * f.tried_views) s.flags.push_back("occluded");
+    // Both silhouettes in too few views: the width rests on one side (a lower bound, mostly).
+    if (f.two_sided_views < 3) s.flags.push_back("one_sided");
+    // The bark places the circle along the line of sight better than the silhouettes' parallax.
+    Eigen::Vector2d centre = f.centre;
+    double radius = f.radius_m;
+    if (bark.ok) {
+      centre += bark.shift_m * centre.normalized();
+      radius *= bark.scale;
+    }
+    s.dbh_tangent_m = 2 * radius;
+    s.dbh_tangent_sd_m = 2 * f.radius_sd_m;
+    // The silhouettes place the stem better than the cloud's depth does, whichever DBH is kept.
+    s.fit_shift_m = (centre - s.centre_xy).norm();
+    s.centre_xy = centre;
+    s.n_views = f.views;
+    s.arc_deg = f.arc_deg;
+    if (o.stems.dbh_method == "tangent") {
+      s.dbh_m = s.dbh_tangent_m;
+      s.dbh_sd_m = s.dbh_tangent_sd_m;
+    }
+    return RefinedStem{verdict, std::move(s), clean, whole, agrees, sharp};
+  };
+  const size_t n_larger_only = larger_cloud_only.size();
+  PartOutcome total;
+  // Nearest first (the detector's order): a farther stem's edge search then stops at the nearer
+  // stems' fitted silhouettes rather than at the cloud's rougher outlines.
+  for (size_t i = 0; i < stems->size(); ++i) {
+    const size_t before = kept.size();
+    const PartOutcome p = ResolvePart(o, std::move((*stems)[i]), refine, &kept);
+    PlaceFittedOccluders(std::span(kept).subspan(before), i, &occluders);
+    total.fitted += p.fitted;
+    total.from_cores += p.from_cores;
+    total.dropped += p.dropped;
+  }
+  // Last, where no listed stem stands: a stem hidden for most of the turn that only the larger
+  // cloud saw.
+  const int hidden =
+      AddLargerCloudOnlyStems(o, std::move(larger_cloud_only), refine, &kept, &occluders);
+  const int twice = DropStemsFittedTwice(o.min_bark_gap_m, &kept);
+  spdlog::info(
+      "stems: tangent rays fitted {} of {} stems ({} from the cores of parts) and {} of {} the "
+      "larger cloud alone found; {} parts without silhouettes dropped, {} fitted onto another "
+      "stem",
+      total.fitted, stems->size(), total.from_cores, hidden, n_larger_only, total.dropped, twice);
+  *stems = std::move(kept);
+}
+
+}  // namespace stemmap::pipeline

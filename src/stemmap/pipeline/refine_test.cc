@@ -1,0 +1,475 @@
+#include "stemmap/pipeline/refine.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "stemmap/stems/test_scene.h"
+
+namespace stemmap::pipeline {
+namespace {
+
+// A 30 cm stem 5 m away as the cloud saw it, and a silhouette fit that agrees to a few mm in
+// five views with both sides.
+struct Case {
+  stems::Stem stem;
+  stems::TangentFit fit;
+  double px_m = 5.0 / 1400.0;
+  Case() {
+    stem.centre_xy = {5.0, 0.0};
+    stem.dbh_slice_m = 0.30;
+    fit.ok = true;
+    fit.centre = stem.centre_xy;
+    fit.radius_m = 0.152;
+    fit.rms_m = 0.002;
+    fit.views = fit.tried_views = fit.two_sided_views = 5;
+  }
+};
+
+stems::Stem Fitted(double x, double y, double dbh_m, double shift_m) {
+  stems::Stem s;
+  s.centre_xy = {x, y};
+  s.dbh_m = dbh_m;
+  s.fit_shift_m = shift_m;
+  return s;
+}
+
+TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
+  std::vector<Eigen::Vector3d> occluders = {{1, 0, 0.1}, {5, 0, 0.3}, {9, 0, 0.2}};
+  std::vector<stems::Stem> fitted(2);
+  fitted[0].centre_xy = {5.1, 0.2};
+  fitted[0].dbh_m = 0.5;          // the cloud's
+  fitted[0].dbh_tangent_m = 0.4;  // the silhouettes'
+  fitted[1].centre_xy = {5.4, -0.3};
+  fitted[1].dbh_m = 0.2;
+  PlaceFittedOccluders(fitted, 1, &occluders);
+  ASSERT_EQ(occluders.size(), 4u);
+  EXPECT_EQ(occluders[0], Eigen::Vector3d(1, 0, 0.1));
+  EXPECT_EQ(occluders[1], Eigen::Vector3d(5.1, 0.2, 0.2));
+  EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
+  EXPECT_EQ(occluders[3], Eigen::Vector3d(5.4, -0.3, 0.1));
+  // A part that became nothing keeps its cloud circle.
+  PlaceFittedOccluders({}, 2, &occluders);
+  EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
+}
+
+// natural-5's smear: a 14.4-cm stem at 5.7 m, and a part 0.7 m behind it on nearly its bearing.
+TEST(InShadowOfNearerStem, APointStraightBehindAListedStem) {
+  const std::vector<stems::Stem> nearer = {Fitted(-2.70, 5.04, 0.144, 0.0)};
+  EXPECT_TRUE(InShadowOfNearerStem(nearer, {-2.96, 5.66}));
+  // Beside its width seen from the centre, in front of it, or within it: no shadow.
+  EXPECT_FALSE(InShadowOfNearerStem(nearer, {-2.52, 5.83}));
+  EXPECT_FALSE(InShadowOfNearerStem(nearer, {-1.35, 2.52}));
+  EXPECT_FALSE(InShadowOfNearerStem(nearer, {-2.72, 5.08}));
+  EXPECT_FALSE(InShadowOfNearerStem({}, {-2.96, 5.66}));
+}
+
+// What may stand straight behind a nearer stem: both sides in three views on one circle, or
+// many silhouettes (managed-2's 37.7-cm stem: 26, both sides in two views) to within a pixel.
+TEST(StandsOnItsOwnSilhouettes, TwoSidedViewsOrManyTightSilhouettes) {
+  const stems::TangentOptions o;
+  const double px_m = 0.006;
+  stems::TangentFit f;
+  f.ok = true;
+  f.rays = 26;
+  f.two_sided_views = 2;
+  f.rms_m = 0.0043;
+  EXPECT_TRUE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.rms_m = 0.009;  // 1.5 px
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.two_sided_views = 3;
+  EXPECT_TRUE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.two_sided_views = 1;
+  f.rms_m = 0.0042;
+  f.rays = 9;  // managed-1's stem hidden behind a 39-cm one 2.7 m out
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.rays = 26;
+  f.ok = false;
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
+}
+
+TEST(HasSharpSilhouettes, BothSidesInThreeViewsOnOneCircleToHalfAPixel) {
+  // natural-2's 11.4-cm stem 8.5 m out behind a 24.3-cm one: 10 rays, 4 views two-sided, 1.6 mm.
+  const double px_m = 0.0058;
+  stems::TangentFit f;
+  f.ok = true;
+  f.rays = 10;
+  f.two_sided_views = 4;
+  f.rms_m = 0.0016;
+  EXPECT_TRUE(HasSharpSilhouettes(f, 0.5, px_m));
+  f.rms_m = 0.0048;  // a fit from a start 0.3 m off: 0.8 px
+  EXPECT_FALSE(HasSharpSilhouettes(f, 0.5, px_m));
+  f.rms_m = 0.0016;
+  f.two_sided_views = 2;
+  EXPECT_FALSE(HasSharpSilhouettes(f, 0.5, px_m));
+  f.two_sided_views = 3;
+  f.ok = false;
+  EXPECT_FALSE(HasSharpSilhouettes(f, 0.5, px_m));
+}
+
+TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
+  const ProcessOptions o;
+  std::vector<stems::Stem> kept = {Fitted(-4.44, 1.24, 0.243, 0.0)};
+  std::vector<Eigen::Vector3d> occluders = {{-4.44, 1.24, 0.12}};
+  const std::vector<stems::Stem> candidates = {
+      Fitted(-4.40, 1.40, 0.1, 0.0),    // its circle touches the listed stem's: not tried
+      Fitted(-8.11, 2.18, 0.107, 0.0),  // sharp: listed
+      Fitted(-8.10, 2.20, 0.148, 0.0),  // now on the stem just listed: not tried
+      Fitted(5.55, -8.20, 0.259, 0.0),  // fits, but loosely
+      Fitted(6.0, 3.0, 0.2, 0.0)};      // sharp, but its fit is not used
+  int tried = 0;
+  const int added = AddLargerCloudOnlyStems(
+      o, candidates,
+      [&](stems::Stem s) {
+        ++tried;
+        const bool sharp = s.centre_xy.x() < 0 || s.centre_xy.y() > 0;
+        const bool use = s.centre_xy.y() < 2.5;
+        return RefinedStem{use ? SilhouetteVerdict::kUse : SilhouetteVerdict::kDrop,
+                           std::move(s),
+                           true,
+                           false,
+                           false,
+                           sharp};
+      },
+      &kept, &occluders);
+  EXPECT_EQ(added, 1);
+  EXPECT_EQ(tried, 3);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_DOUBLE_EQ(kept[1].centre_xy.x(), -8.11);
+  EXPECT_EQ(kept[1].flags, std::vector<std::string>{"silhouette_only"});
+  ASSERT_EQ(occluders.size(), 2u);
+  EXPECT_DOUBLE_EQ(occluders[1].z(), 0.0535);
+}
+
+TEST(BarkConfirmsCloud, TwoSidedSilhouettesAndBarkOnTheCloudsCircle) {
+  // natural-5's 16.4-cm stem in front of a 35.8-cm one 2 m behind it: the fit settled on the far
+  // stem, where the bark did not line up; on the cloud's circle it does, 6 cm nearer.
+  stems::Stem part;
+  stems::TangentFit f;
+  f.ok = false;
+  f.rays = 49;
+  f.two_sided_views = 20;
+  f.tried_views = 49;
+  stems::BarkDepth bark;
+  bark.ok = true;
+  bark.shift_m = -0.056;
+  bark.peak_ncc = 0.95;
+  EXPECT_TRUE(BarkConfirmsCloud(part, f, bark));
+  // Rejections, one at a time: a fit that stood, too few two-sided views (a sapling's twigs),
+  // a weakly supported part, bark that lines up nowhere or only at the end of its search.
+  struct Case {
+    const char* what;
+    std::function<void(stems::Stem*, stems::TangentFit*, stems::BarkDepth*)> change;
+  };
+  const std::vector<Case> cases = {
+      {"fit ok", [](auto*, auto* fit, auto*) { fit->ok = true; }},
+      {"two-sided in 7 of 45",
+       [](auto*, auto* fit, auto*) { fit->two_sided_views = 7, fit->tried_views = 45; }},
+      {"no silhouette", [](auto*, auto* fit, auto*) { fit->rays = 0; }},
+      {"weak support", [](auto* p, auto*, auto*) { p->weak_support = true; }},
+      {"no bark", [](auto*, auto*, auto* b) { b->ok = false; }},
+      {"bark at the end", [](auto*, auto*, auto* b) { b->at_search_end = true; }}};
+  for (const Case& c : cases) {
+    stems::Stem p2 = part;
+    stems::TangentFit f2 = f;
+    stems::BarkDepth b2 = bark;
+    c.change(&p2, &f2, &b2);
+    EXPECT_FALSE(BarkConfirmsCloud(p2, f2, b2)) << c.what;
+  }
+}
+
+TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
+  // A 27.8-cm stem, and a 17.8-cm fit that moved 0.47 m from its points to touch it; a third
+  // stem 0.46 m from the first, and a far one that moved as much, stay.
+  std::vector<stems::Stem> stems = {
+      Fitted(4.42, 3.82, 0.278, 0.01), Fitted(4.24, 3.97, 0.178, 0.47),
+      Fitted(4.42, 4.12 + 0.16, 0.10, 0.02), Fitted(-6.0, 1.0, 0.30, 0.47)};
+  EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
+  ASSERT_EQ(stems.size(), 3u);
+  EXPECT_DOUBLE_EQ(stems[0].dbh_m, 0.278);
+  EXPECT_DOUBLE_EQ(stems[1].dbh_m, 0.10);
+  EXPECT_DOUBLE_EQ(stems[2].centre_xy.x(), -6.0);
+}
+
+TEST(DropStemsFittedTwice, OfTwoEquallyMovedStemsOneStays) {
+  std::vector<stems::Stem> stems = {Fitted(5.0, 0.0, 0.30, 0.0), Fitted(5.0, 0.30, 0.30, 0.0)};
+  EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
+  EXPECT_EQ(stems.size(), 1u);
+}
+
+// Three stems nearly in line from the centre, which depth noise joined into one 43-cm part with
+// two dense cores; the part's silhouettes fit a 22.6-cm stem between them. `fitting` says which
+// cores fit cleanly on their own.
+struct InLine {
+  stems::Stem part;
+  std::vector<Eigen::Vector2d> fitting;
+  int refined = 0;
+  InLine() {
+    part.centre_xy = {8.8, -0.3};
+    part.dbh_slice_m = 0.43;
+    part.alternatives = {Fitted(8.2, -0.1, 0.17, 0.0), Fitted(9.1, -0.5, 0.13, 0.0)};
+  }
+  RefinedStem Refine(stems::Stem s) {
+    ++refined;
+    const bool is_part = (s.centre_xy - part.centre_xy).norm() < 1e-9;
+    const bool fits = is_part || std::ranges::any_of(fitting, [&](const Eigen::Vector2d& c) {
+                        return (c - s.centre_xy).norm() < 1e-9;
+                      });
+    if (is_part) s.dbh_m = s.dbh_tangent_m = part_fit_dbh_m;
+    const bool whole = fits && (!is_part || part_whole);
+    return {fits ? SilhouetteVerdict::kUse : SilhouetteVerdict::kDrop, std::move(s), fits, whole};
+  }
+  double part_fit_dbh_m = 0.226;
+  bool part_whole = true;  // the part's fit shows both sides in most views
+};
+
+TEST(ResolvePart, AFitFarNarrowerThanASmearedPartGivesWayToItsCores) {
+  InLine c;
+  c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
+  std::vector<stems::Stem> kept;
+  const PartOutcome out = ResolvePart(
+      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.17);
+  EXPECT_DOUBLE_EQ(kept[1].dbh_m, 0.13);
+  EXPECT_EQ(out.fitted, 2);
+  EXPECT_EQ(out.from_cores, 2);
+}
+
+TEST(ResolvePart, APartThatComesToNothingGivesWayToTheLargerCloudsClean) {
+  // A sliver of a stem the silhouettes drop; the larger cloud's part of it fits cleanly, or not.
+  // On its cloud only where the silhouettes agree with the cloud's width.
+  for (const auto& [clean, agrees] : {std::pair{true, true}, {false, true}, {true, false}}) {
+    stems::Stem part = Fitted(4.99, -4.49, 0.188, 0.0);
+    part.larger_cloud_part = {Fitted(4.98, -4.58, 0.308, 0.0)};
+    std::vector<stems::Stem> kept;
+    const PartOutcome out = ResolvePart(
+        {}, part,
+        [&](stems::Stem s) {
+          const bool larger = s.dbh_m > 0.3;
+          return RefinedStem{larger ? SilhouetteVerdict::kKeepCloud : SilhouetteVerdict::kDrop,
+                             std::move(s), larger && clean, false, larger && agrees};
+        },
+        &kept);
+    if (clean && agrees) {
+      ASSERT_EQ(kept.size(), 1u);
+      EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.308);
+      EXPECT_EQ(out.fitted, 1);
+      EXPECT_EQ(out.dropped, 0);
+    } else {
+      EXPECT_TRUE(kept.empty());
+      EXPECT_EQ(out.dropped, 1);
+    }
+  }
+}
+
+TEST(ResolvePart, OneCoreAloneDoesNotReplaceThePartsFit) {
+  InLine c;
+  c.fitting = {{8.2, -0.1}};
+  std::vector<stems::Stem> kept;
+  const PartOutcome out = ResolvePart(
+      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.226);
+  EXPECT_EQ(out.fitted, 1);
+  EXPECT_EQ(out.from_cores, 0);
+}
+
+// ... unless the part's fit shows both sides in only some views and that core in most of its
+// own: the part's fit then caught what stands beside the stem.
+TEST(ResolvePart, OneWholeCoreReplacesAPartialFitOfItsPart) {
+  InLine c;
+  c.fitting = {{8.2, -0.1}};
+  c.part_whole = false;
+  std::vector<stems::Stem> kept;
+  const PartOutcome out = ResolvePart(
+      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.17);
+  EXPECT_EQ(out.fitted, 1);
+  EXPECT_EQ(out.from_cores, 1);
+}
+
+// Two cores of one stem overlap: the one with both sides in most of its views stands, though it
+// comes second.
+TEST(ResolvePart, OfOverlappingCoresTheWholeOneStands) {
+  stems::Stem part = Fitted(8.6, -0.2, 0.0, 0.0);
+  part.dbh_slice_m = 0.43;
+  part.alternatives = {Fitted(8.5, -0.2, 0.10, 0.0), Fitted(8.55, -0.15, 0.19, 0.0)};
+  auto refine = [&](stems::Stem s) {
+    const bool is_part = s.dbh_m == 0.0;
+    if (is_part) s.dbh_m = s.dbh_tangent_m = 0.14;
+    const bool whole = s.dbh_m == 0.19;
+    return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, whole};
+  };
+  std::vector<stems::Stem> kept;
+  const PartOutcome out = ResolvePart({}, part, refine, &kept);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.19);
+  EXPECT_EQ(out.from_cores, 1);
+}
+
+TEST(ResolvePart, AFitNearThePartsWidthKeepsThePartWithoutTryingItsCores) {
+  InLine c;
+  c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
+  c.part_fit_dbh_m = 0.40;
+  std::vector<stems::Stem> kept;
+  ResolvePart(
+      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.40);
+  EXPECT_EQ(c.refined, 1);
+}
+
+TEST(JudgeSilhouetteFit, UsesAFitThatAgreesWithTheCloud) {
+  const Case c;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+}
+
+TEST(JudgeSilhouetteFit, KeepsTheCloudWhenTheFitLockedOntoSomethingElse) {
+  Case c;
+  // Under narrow_min_share (0.35) of the points' width: a furrow or a neighbour's edge.
+  c.fit.radius_m = 0.045;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
+TEST(JudgeSilhouetteFit, APartWithoutSilhouettesIsDroppedUnlessUnconfirmedPartsAreKept) {
+  Case c;
+  c.fit.ok = false;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+  ProcessOptions keep;
+  keep.require_silhouette = false;
+  EXPECT_EQ(JudgeSilhouetteFit(keep, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
+TEST(JudgeSilhouetteFit, NarrowerSilhouettesOnBothSidesInMostViewsOutrankTheCloud) {
+  Case c;
+  c.fit.radius_m = 0.08;  // the cloud took in a shrub beside a 16-cm stem
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.radius_m = 0.06;  // saplings on both sides of a 12-cm stem: 0.4 of the points' width
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.stem.depth_smeared = true;  // also where the stereo points were smeared in depth
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.stem.depth_smeared = false;
+  c.fit.tried_views = 8;  // both sides in only three of eight views: not enough to overrule it
+  c.fit.two_sided_views = 3;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
+TEST(JudgeSilhouetteFit, RequiringSilhouettesDropsWhatNoneConfirms) {
+  Case c;
+  c.fit.ok = false;
+  ProcessOptions o;
+  o.require_silhouette = true;
+  EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+  c.fit.ok = true;  // a confirmed stem stays, required or not
+  EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+}
+
+TEST(JudgeSilhouetteFit, AWeaklySupportedPartNeedsBothSidesInSeveralViews) {
+  Case c;
+  c.stem.weak_support = true;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.two_sided_views = 2;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+}
+
+TEST(JudgeSilhouetteFit, WiderTwoSidedSilhouettesOutrankTheCloud) {
+  Case c;
+  c.fit.radius_m = 0.25;  // the cloud saw part of a half-hidden stem
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.rms_m = 0.02;  // the same width from sides that disagree by several pixels: not trusted
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
+TEST(JudgeSilhouetteFit, AOneSidedFitCannotWidenTheCloud) {
+  Case c;
+  c.fit.two_sided_views = 2;
+  c.fit.radius_m = 0.2;      // a third wider than the points, from one side
+  c.fit.rms_m = 2 * c.px_m;  // with rays two pixels apart: unchecked
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.stem.depth_smeared = true;  // a stem all the same: kept with the cloud's width, not dropped
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.fit.radius_m = 0.145;  // narrower (the cloud's part of a stem can be smeared wider): used
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.radius_m = 0.2;  // both sides in three views, agreeing: the wider fit is checked and used
+  c.fit.two_sided_views = 3;
+  c.fit.rms_m = 0.002;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+}
+
+TEST(JudgeSilhouetteFit, ASmearedStemsFitMustStayWithinHalfToTwiceItsWidth) {
+  Case c;
+  c.stem.depth_smeared = true;
+  c.fit.radius_m = 0.24;  // 1.6 times the smeared width: rough, used
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.rms_m = 2 * c.px_m;  // but not from silhouettes that disagree by two pixels
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.fit.radius_m = 0.12;  // narrower than the points: the smeared width is no check on it
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.rms_m = 0.002;
+  c.fit.radius_m = 0.36;  // 2.4 times: a neighbour's edge; the silhouettes still confirm a stem
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.fit.radius_m = 0.03;  // a fifth of it: one side of the stem and a furrow
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+  c.fit.ok = false;  // no silhouettes at all: a smeared part is not a stem
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+}
+
+TEST(JudgeSilhouetteFit, AOneSidedFitTangentToOneCircleWidensAStemTheCloudSawInPart) {
+  Case c;
+  c.fit.two_sided_views = 0;  // a nearer stem hides the other side in every view
+  c.fit.radius_m = 0.2;       // a third wider than the points, its rays within half a pixel
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.stem.dbh_slice_m = 0.10;  // a part the cloud saw as a pole: one side cannot widen it
+  c.fit.radius_m = 0.08;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
+// The widest tangent start supposes 2.2 times the cloud's width; a fit that grew a little
+// beyond it is still that stem, one far wider found something else.
+TEST(JudgeSilhouetteFit, WiderSilhouettesUpToALittleBeyondTheWidestStart) {
+  Case c;
+  c.stem.depth_smeared = false;
+  c.stem.weak_support = true;  // only silhouettes can keep it
+  c.fit.radius_m = 2.6 * 0.15;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+  c.fit.radius_m = 2.9 * 0.15;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+  ProcessOptions o;
+  o.tangent.wide_start_scales = {1.6};  // a narrower widest start narrows the bound
+  c.fit.radius_m = 2.6 * 0.15;
+  EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
+}
+
+// Two stems 0.7 m apart, 6 m away, and a fit that took in both and the gap between them: its bark
+// lines up at no distance, and the fit fails. A fit on one of them keeps its place and gets its
+// distance from the bark.
+TEST(CheckFitOnBark, AFitAcrossTwoStemsFails) {
+  const Eigen::Vector3d a(6.0, 0.0, 0.1), b(6.0, 0.9, 0.1);
+  const stems::RenderedStem scene =
+      stems::RenderStems({a, b}, true, false, stems::Texture::kIrregular);
+  const stems::TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  stems::TangentFit across;
+  across.ok = true;
+  across.centre = {6.0, 0.45};
+  across.radius_m = 0.55;
+  const stems::BarkDepthOptions o;
+  const stems::TangentOptions t;
+  stems::TangentFit fit = across;
+  const stems::BarkDepth no_bark = CheckFitOnBark(o, t, views, 1.37, &fit);
+  EXPECT_FALSE(fit.ok);
+  EXPECT_GE(no_bark.pairs, o.min_pairs);
+  EXPECT_LT(no_bark.peak_ncc, o.min_surface_ncc);
+  fit = across;
+  fit.centre = a.head<2>();
+  fit.radius_m = a.z();
+  const stems::BarkDepth bark = CheckFitOnBark(o, t, views, 1.37, &fit);
+  EXPECT_TRUE(fit.ok);
+  ASSERT_TRUE(bark.ok);
+  EXPECT_GT(bark.peak_ncc, o.min_peak_ncc);
+  EXPECT_NEAR(bark.shift_m, 0.0, 0.01);
+}
+
+}  // namespace
+}  // namespace stemmap::pipeline
