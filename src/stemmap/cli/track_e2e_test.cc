@@ -124,6 +124,10 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
             o.tangent.sideways_start_shifts);
   EXPECT_EQ(saved["breast_height_m"].get<double>(), o.stems.breast_height_m);
   for (const stems::Stem& s : r.stems) EXPECT_GE(100 * s.dbh_m, o.min_dbh_cm);
+  // tree_id counts outward from the centre.
+  for (size_t i = 1; i < r.stems.size(); ++i) {
+    EXPECT_LE(r.stems[i - 1].centre_xy.norm(), r.stems[i].centre_xy.norm()) << i;
+  }
   // A short, small clip: most near trees found, none far off.
   eval::EvaluateOptions eo;
   eo.plot_radius_m = 8.0;
