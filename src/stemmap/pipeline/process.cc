@@ -41,6 +41,13 @@ void ProcessOptions::Check() const {
   if (!(larger_cloud_only_max_rms_px >= 0)) {
     throw InputError("the rms a larger cloud's stem's silhouettes may keep must not be negative");
   }
+  if (!(wide_fit_scale >= 1)) {
+    throw InputError(
+        "the width over the cloud's that needs the bark to line up must be at least 1");
+  }
+  if (!(wide_fit_min_bark_ncc >= -1 && wide_fit_min_bark_ncc <= 1)) {
+    throw InputError("the bark correlation a wide fit needs must lie in [-1, 1]");
+  }
   if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
     throw InputError(
         "the share of a part's width below which its cores are tried must lie in [0, 1]");
@@ -190,6 +197,8 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"short_baseline_max_depth_m", o.dense.short_baseline_max_depth_m},
        {"larger_cloud_part_gap_m", o.larger_cloud_part_gap_m},
        {"larger_cloud_only_max_rms_px", o.larger_cloud_only_max_rms_px},
+       {"wide_fit_scale", o.wide_fit_scale},
+       {"wide_fit_min_bark_ncc", o.wide_fit_min_bark_ncc},
        {"tangent", o.tangent},
        {"bark_depth", o.bark_depth},
        {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});

@@ -59,6 +59,12 @@ struct ProcessOptions {
   // and its few two-sided views are all there is; clutter's edges are not tangent to one circle
   // to a fraction of a pixel). 0: not tried.
   double larger_cloud_only_max_rms_px = 0.5;
+  // A fit over this many times the cloud's radius found silhouettes beyond anything the cloud
+  // saw (a wide start that closed on a sapling and the stem behind it, or on two neighbours):
+  // only the bark between them can say they enclose one stem, so it stands only where the bark
+  // lines up to at least this correlation over enough pairs (BarkDepthOptions::min_pairs).
+  double wide_fit_scale = 2.0;
+  double wide_fit_min_bark_ncc = 0.5;
   // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
   // camera are used instead of tracking again; empty: track the video.
   std::filesystem::path from_track;

@@ -51,6 +51,13 @@ TEST(ProcessOptions, TheLargerCloudsSettingsAreChecked) {
   EXPECT_EQ(CheckMessage(o),
             "the rms a larger cloud's stem's silhouettes may keep must not be negative");
   o = ProcessOptions();
+  o.wide_fit_scale = 0.9;
+  EXPECT_EQ(CheckMessage(o),
+            "the width over the cloud's that needs the bark to line up must be at least 1");
+  o = ProcessOptions();
+  o.wide_fit_min_bark_ncc = 1.5;
+  EXPECT_EQ(CheckMessage(o), "the bark correlation a wide fit needs must lie in [-1, 1]");
+  o = ProcessOptions();
   o.dense.short_baseline_max_depth_m = 2.0;  // inside the near pairs' own range
   EXPECT_EQ(CheckMessage(o),
             "the short-baseline depth limit must be 0 or beyond the near pairs' range");

@@ -271,6 +271,12 @@ stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::T
   return bark;
 }
 
+bool WideFitLinesUpOnBark(const ProcessOptions& o, const stems::TangentFit& fit,
+                          const stems::BarkDepth& bark, double cloud_radius_m) {
+  if (!(fit.radius_m > o.wide_fit_scale * cloud_radius_m)) return true;
+  return bark.pairs >= o.bark_depth.min_pairs && bark.peak_ncc >= o.wide_fit_min_bark_ncc;
+}
+
 void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
                            std::vector<stems::Stem>* stems,
@@ -307,6 +313,13 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
     stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark);
     const double px_m = s.centre_xy.norm() / camera.fx;
     const stems::BarkDepth bark = CheckFitOnBark(o.bark_depth, topt, views, breast_z, &f);
+    if (f.ok && !WideFitLinesUpOnBark(o, f, bark, r0)) {
+      spdlog::debug(
+          "stems: ({:.2f}, {:.2f}) fit r {:.3f} over r0 {:.3f}: its bark does not show it "
+          "(ncc {:.2f}, {} pairs)",
+          s.centre_xy.x(), s.centre_xy.y(), f.radius_m, r0, bark.peak_ncc, bark.pairs);
+      f.ok = false;
+    }
     spdlog::debug(
         "tangent fit ({:.2f}, {:.2f}): ok {} r {:.3f} r0 {:.3f} rays {} views {} two-sided {} of "
         "{} tried, rms {:.1f} mm, at ({:.3f}, {:.3f})",

@@ -95,6 +95,12 @@ stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::T
                                 const stems::TangentViews& views, double breast_z,
                                 stems::TangentFit* fit);
 
+// Whether a fit has the bark to show for its width: true unless it is over
+// ProcessOptions::wide_fit_scale times `cloud_radius_m` and its bark lines up to under
+// wide_fit_min_bark_ncc, or over too few pairs to tell.
+bool WideFitLinesUpOnBark(const ProcessOptions& o, const stems::TangentFit& fit,
+                          const stems::BarkDepth& bark, double cloud_radius_m);
+
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
 // method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution
 // (blurred in place), or empty to use `bgr` at the working resolution. `larger_cloud_only`

@@ -107,6 +107,24 @@ TEST(HasSharpSilhouettes, BothSidesInThreeViewsOnOneCircleToHalfAPixel) {
   EXPECT_FALSE(HasSharpSilhouettes(f, 0.5, px_m));
 }
 
+TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
+  // natural-3's 4.4-cm sapling: its 8.8-cm part, a 2.2-times start closed on 19.8 cm.
+  const ProcessOptions o;
+  stems::TangentFit f;
+  f.ok = true;
+  f.radius_m = 0.099;
+  stems::BarkDepth bark;
+  bark.pairs = 38;
+  bark.peak_ncc = 0.38;
+  EXPECT_FALSE(WideFitLinesUpOnBark(o, f, bark, 0.044));
+  bark.peak_ncc = 0.955;  // managed-1's 26.8-cm stem, a 9.6-cm sliver in the cloud
+  EXPECT_TRUE(WideFitLinesUpOnBark(o, f, bark, 0.044));
+  bark.pairs = 0;  // no bark to compare: nothing shows the width
+  EXPECT_FALSE(WideFitLinesUpOnBark(o, f, bark, 0.044));
+  bark.peak_ncc = 0.38;
+  EXPECT_TRUE(WideFitLinesUpOnBark(o, f, bark, 0.05));  // under twice the cloud's radius
+}
+
 TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
   const ProcessOptions o;
   std::vector<stems::Stem> kept = {Fitted(-4.44, 1.24, 0.243, 0.0)};
