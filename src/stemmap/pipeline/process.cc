@@ -152,9 +152,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
       std::erase_if(sr.stems, [&](const stems::Stem& s) { return 100 * s.dbh_m < o.min_dbh_cm; });
   if (below > 0) spdlog::info("stems: {} below {:.0f} cm DBH left out", below, o.min_dbh_cm);
   // tree_id counts outward (docs/output-format.md): fits move stems, and stems found late join.
-  std::ranges::stable_sort(sr.stems, [](const stems::Stem& a, const stems::Stem& b) {
-    return a.centre_xy.squaredNorm() < b.centre_xy.squaredNorm();
-  });
+  std::ranges::stable_sort(sr.stems, stems::NearerTheCentre);
 
   ProcessResult r;
   r.stems = sr.stems;

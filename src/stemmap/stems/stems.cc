@@ -86,9 +86,7 @@ std::vector<Stem> StemsAwayFrom(std::span<const Stem> more, double gap_m,
     away.back().alternatives.clear();
     away.back().larger_cloud_part.clear();
   }
-  std::ranges::stable_sort(away, [](const Stem& a, const Stem& b) {
-    return a.centre_xy.squaredNorm() < b.centre_xy.squaredNorm();
-  });
+  std::ranges::stable_sort(away, NearerTheCentre);
   return away;
 }
 
@@ -538,9 +536,7 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
     }
     result.stems.push_back(std::move(*s));
   }
-  std::sort(result.stems.begin(), result.stems.end(), [](const Stem& a, const Stem& b) {
-    return a.centre_xy.squaredNorm() < b.centre_xy.squaredNorm();
-  });
+  std::sort(result.stems.begin(), result.stems.end(), NearerTheCentre);
   return result;
 }
 

@@ -100,6 +100,11 @@ struct StemsResult {
 // how many were attached.
 int AttachLargerCloudParts(std::vector<Stem> more, double gap_m, std::vector<Stem>* found);
 
+// Orders stems nearest the plot centre first (the detector's order, and the list's).
+inline bool NearerTheCentre(const Stem& a, const Stem& b) {
+  return a.centre_xy.squaredNorm() < b.centre_xy.squaredNorm();
+}
+
 // The stems of `more` whose circles come within gap_m of no stem of `found`, nearest the plot
 // centre first, without their cores.
 std::vector<Stem> StemsAwayFrom(std::span<const Stem> more, double gap_m,
