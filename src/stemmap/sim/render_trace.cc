@@ -64,16 +64,18 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
   int object = kObjSky;
   Eigen::Vector3d normal(0, 0, 1);
   Eigen::Vector3f albedo(0, 0, 0);
+  // A stem is shaded once the nearest is known: a nearer one found later hides it.
+  Stem::SurfacePoint stem_point;
   for (const Candidate& c : candidates) {
     const double t_limit = std::min(t_best, t_ground_max);
     if (c.min_dist_xy_m > t_limit * dxy + 1e-6) break;
     if (c.index >= 0) {
-      const auto hit = scene_.trees[c.index].stem.Intersect(o, d, 1e-4, t_limit, 0.25 / camera_.fx);
-      if (hit) {
-        t_best = hit->t;
+      const auto point =
+          scene_.trees[c.index].stem.FirstSurfacePoint(o, d, 1e-4, t_limit, 0.25 / camera_.fx);
+      if (point) {
+        t_best = point->t;
         object = kObjTree + c.index;
-        normal = hit->normal_world;
-        albedo = hit->albedo;
+        stem_point = *point;
       }
     } else {
       double t;
@@ -92,6 +94,10 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
   if (t_ground < t_best) {
     t_best = t_ground;
     object = kObjGround;
+  } else if (object >= kObjTree && object < kObjShrub) {
+    const StemHit hit = scene_.trees[object - kObjTree].stem.Shade(stem_point);
+    normal = hit.normal_world;
+    albedo = hit.albedo;
   }
 
   Eigen::Vector3f rgb;
@@ -276,7 +282,7 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
       const bool a_front = is_front(id, dep, u, u + 1);
       const int front = a_front ? a : b;
       const bool hit = scene_.trees[front - kObjTree]
-                           .stem.Intersect(o, rot * rc, 1e-4, kInf, 0.25 / camera_.fx)
+                           .stem.FirstSurfacePoint(o, rot * rc, 1e-4, kInf, 0.25 / camera_.fx)
                            .has_value();
       if (hit == a_front) {
         mark[u + 1] |= kLeft;
@@ -311,7 +317,8 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
           const Sample s = Trace(o, rot * rc, columns[u]);
           sum += cv::Vec3f(s.rgb.x(), s.rgb.y(), s.rgb.z());
         } else {
-          const bool hit = stem->Intersect(o, rot * rc, 1e-4, kInf, 0.25 / camera_.fx).has_value();
+          const bool hit =
+              stem->FirstSurfacePoint(o, rot * rc, 1e-4, kInf, 0.25 / camera_.fx).has_value();
           sum += centre[hit == u_front ? u : other];
         }
       }

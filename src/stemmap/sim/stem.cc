@@ -135,6 +135,14 @@ double Stem::Field(const Eigen::Vector3d& q, FieldParts* parts) const {
 
 std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
                                        double t_min, double t_max, double tol_per_m) const {
+  const std::optional<SurfacePoint> point = FirstSurfacePoint(o, d, t_min, t_max, tol_per_m);
+  if (!point) return std::nullopt;
+  return Shade(*point);
+}
+
+std::optional<Stem::SurfacePoint> Stem::FirstSurfacePoint(const Eigen::Vector3d& o,
+                                                          const Eigen::Vector3d& d, double t_min,
+                                                          double t_max, double tol_per_m) const {
   const Eigen::Quaterniond stem_from_world = world_from_stem_.conjugate();
   const Eigen::Vector3d os = stem_from_world * (o - p_.base_world);
   const Eigen::Vector3d ds = stem_from_world * d;
@@ -210,10 +218,14 @@ std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
     f = Field(os + t * ds, &parts);
   }
   if (!found || t > t_end || t < t_min) return std::nullopt;
+  return SurfacePoint{t, os + t * ds, parts};
+}
 
+StemHit Stem::Shade(const SurfacePoint& point) const {
   // Normal from the field's gradient in cylindrical coordinates, F = rho - S(phi, s):
   // grad F = e_rho - (dS/dphi / rho) e_phi - (dS/ds) e_z, with S differenced along phi and s.
-  const Eigen::Vector3d q = os + t * ds;
+  const Eigen::Vector3d& q = point.q_stem;
+  FieldParts parts = point.parts;
   if (!parts.valid) {
     parts.valid = true;
     parts.rho = std::sqrt(q.x() * q.x() + q.y() * q.y());
@@ -236,7 +248,7 @@ std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
   const Eigen::Vector3d e_rho(q.x() / rho, q.y() / rho, 0.0), e_phi(-e_rho.y(), e_rho.x(), 0.0);
   const Eigen::Vector3d grad = e_rho - (dS_dphi / rho) * e_phi - dS_ds * Eigen::Vector3d::UnitZ();
   StemHit hit;
-  hit.t = t;
+  hit.t = point.t;
   hit.normal_world = world_from_stem_ * grad.normalized();
   hit.albedo = Albedo(u, q.z(), relief);
   return hit;

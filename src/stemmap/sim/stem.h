@@ -51,10 +51,29 @@ class Stem {
   Eigen::Vector3d AxisPoint(double s) const { return p_.base_world + s * axis_world_; }
   const Eigen::Vector3d& axis_world() const { return axis_world_; }
 
+  // What the field computes at a point, kept so that a hit's normal and albedo reuse it.
+  struct FieldParts {
+    bool valid = false;  // false where the field short-cuts (beyond the ends, on the axis)
+    double rho, phi, u, mean_radius, surface_radius, relief;
+  };
+  // Where a ray meets the surface, before any shading: enough to tell which object is nearest.
+  struct SurfacePoint {
+    double t = 0.0;          // ray parameter
+    Eigen::Vector3d q_stem;  // the point, stem frame
+    FieldParts parts;        // of the field at q_stem
+  };
+
   // First intersection of the ray o + t d (|d| = 1) with t in (t_min, t_max). The surface is
   // located to `tol_per_m` × t (a fraction of the pixel footprint is plenty).
   std::optional<StemHit> Intersect(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_min,
                                    double t_max, double tol_per_m = 1e-5) const;
+  // Intersect() in two parts: the march, and the normal and albedo where it ended. Shading only
+  // the nearest of several stems along a ray, or none when only the hit matters, saves the bark
+  // lookups the shading needs.
+  std::optional<SurfacePoint> FirstSurfacePoint(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
+                                                double t_min, double t_max,
+                                                double tol_per_m = 1e-5) const;
+  StemHit Shade(const SurfacePoint& point) const;
   // Entry distance of the ray into the stem's smooth envelope (no bark relief), or infinity.
   // Cheap enough to fill a shadow map.
   double EnvelopeEntry(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const;
@@ -75,11 +94,6 @@ class Stem {
   // Bark relief (<= 0) at turn fraction u = azimuth / 2π in [0, 1) and height s.
   double Relief(double u, double s) const;
   double EllipseFactor(double cos_phi, double sin_phi) const;
-  // What Field() computes at a point, kept so that a hit's normal and albedo reuse it.
-  struct FieldParts {
-    bool valid = false;  // false where the field short-cuts (beyond the ends, on the axis)
-    double rho, phi, u, mean_radius, surface_radius, relief;
-  };
   double Field(const Eigen::Vector3d& p_stem, FieldParts* parts = nullptr) const;  // < 0 inside
   double SurfaceRadius(double phi, double s, double mean_radius) const;
   Eigen::Vector3f Albedo(double u, double s, double relief) const;  // relief = Relief(u, s)
