@@ -74,11 +74,15 @@ double ValueNoise::Noise3(double x, double y, double z) const {
 
 double ValueNoise::Noise2PeriodicX(double x, double y, int period) const {
   const int64_t fx = FloorInt(x), fy = FloorInt(y);
-  // A 32-bit remainder where the lattice index fits (always, in practice): a 64-bit division
-  // costs several times more, and this runs per bark sample.
-  int ix = fx >= -(int64_t{1} << 30) && fx < (int64_t{1} << 30) ? static_cast<int>(fx) % period
-                                                                : static_cast<int>(fx % period);
-  if (ix < 0) ix += period;
+  // Azimuths come in as x in [0, period): no remainder needed there, since a division costs many
+  // times more than the rest of the lookup, and this runs per bark sample.
+  int ix;
+  if (fx >= 0 && fx < period) {
+    ix = static_cast<int>(fx);
+  } else {
+    ix = static_cast<int>(fx % period);
+    if (ix < 0) ix += period;
+  }
   const int ix1 = ix + 1 == period ? 0 : ix + 1;
   const int iy = static_cast<int>(fy & (kPeriod - 1));
   return Interp2(ix, ix1, iy, Fade(x - static_cast<double>(fx)), Fade(y - static_cast<double>(fy)));

@@ -16,13 +16,26 @@ Ground::Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_
       slope_deg_(slope_deg),
       noise_(seed) {
   table_origin_m_ = -extent_m;
+  inv_table_step_ = 1.0 / table_step_m_;
   table_n_ = static_cast<int>(std::ceil(2.0 * extent_m / table_step_m_)) + 2;
-  bump_table_.resize(static_cast<size_t>(table_n_) * table_n_);
-  for (int i = 0; i < table_n_; ++i) {
-    for (int j = 0; j < table_n_; ++j) {
+  const size_t n = static_cast<size_t>(table_n_);
+  table_.resize(n * n);
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = 0; j < n; ++j) {
       const double x = table_origin_m_ + j * table_step_m_, y = table_origin_m_ + i * table_step_m_;
-      bump_table_[static_cast<size_t>(i) * table_n_ + j] = static_cast<float>(
-          unevenness_m_ * noise_.Fbm2(x / wavelength_m_, y / wavelength_m_, kOctaves));
+      table_[i * n + j].bump_m = static_cast<float>(BumpFromNoise(x, y));
+    }
+  }
+  // Node slopes by central differences (one-sided at the border).
+  auto bump = [&](size_t i, size_t j) { return static_cast<double>(table_[i * n + j].bump_m); };
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = 0; j < n; ++j) {
+      const size_t j0 = j > 0 ? j - 1 : j, j1 = j + 1 < n ? j + 1 : j;
+      const size_t i0 = i > 0 ? i - 1 : i, i1 = i + 1 < n ? i + 1 : i;
+      table_[i * n + j].dx =
+          static_cast<float>((bump(i, j1) - bump(i, j0)) / ((j1 - j0) * table_step_m_));
+      table_[i * n + j].dy =
+          static_cast<float>((bump(i1, j) - bump(i0, j)) / ((i1 - i0) * table_step_m_));
     }
   }
   const double s = std::tan(slope_deg * std::numbers::pi / 180.0);
@@ -31,12 +44,12 @@ Ground::Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_
       -s * Eigen::Vector2d(std::cos(downhill_azimuth_rad), std::sin(downhill_azimuth_rad));
   // The tabulated surface is piecewise bilinear: its steepest slope is found among the cells.
   double max_bump_slope = 0.0;
-  for (int i = 0; i + 1 < table_n_; ++i) {
-    for (int j = 0; j + 1 < table_n_; ++j) {
-      const float* r0 = &bump_table_[static_cast<size_t>(i) * table_n_ + j];
-      const float* r1 = r0 + table_n_;
-      const double gx = std::max(std::abs(r0[1] - r0[0]), std::abs(r1[1] - r1[0]));
-      const double gy = std::max(std::abs(r1[0] - r0[0]), std::abs(r1[1] - r0[1]));
+  for (size_t i = 0; i + 1 < n; ++i) {
+    for (size_t j = 0; j + 1 < n; ++j) {
+      const double gx = std::max(std::abs(bump(i, j + 1) - bump(i, j)),
+                                 std::abs(bump(i + 1, j + 1) - bump(i + 1, j)));
+      const double gy = std::max(std::abs(bump(i + 1, j) - bump(i, j)),
+                                 std::abs(bump(i + 1, j + 1) - bump(i, j + 1)));
       max_bump_slope = std::max(max_bump_slope, std::hypot(gx, gy) / table_step_m_);
     }
   }
@@ -45,28 +58,24 @@ Ground::Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_
   lipschitz_ = s + std::max(1.1 * max_bump_slope, 1e-4);
 }
 
-double Ground::Bump(double x, double y) const {
-  const double fx = (x - table_origin_m_) / table_step_m_,
-               fy = (y - table_origin_m_) / table_step_m_;
-  const int j = static_cast<int>(std::floor(fx)), i = static_cast<int>(std::floor(fy));
-  if (i < 0 || j < 0 || i + 1 >= table_n_ || j + 1 >= table_n_) {
-    return unevenness_m_ * noise_.Fbm2(x / wavelength_m_, y / wavelength_m_, kOctaves);
-  }
-  const double wx = fx - j, wy = fy - i;
-  const float* r0 = &bump_table_[static_cast<size_t>(i) * table_n_ + j];
-  const float* r1 = r0 + table_n_;
-  return (1 - wy) * ((1 - wx) * r0[0] + wx * r0[1]) + wy * ((1 - wx) * r1[0] + wx * r1[1]);
+double Ground::BumpFromNoise(double x, double y) const {
+  return unevenness_m_ * noise_.Fbm2(x / wavelength_m_, y / wavelength_m_, kOctaves);
 }
 
-double Ground::Raw(double x, double y) const {
-  return plane_gradient_.x() * x + plane_gradient_.y() * y + Bump(x, y);
-}
-
-double Ground::Height(double x, double y) const { return Raw(x, y) - offset_m_; }
+double Ground::Raw(double x, double y) const { return Height(x, y) + offset_m_; }
 
 Eigen::Vector2d Ground::Gradient(double x, double y) const {
-  const double h = 0.5 * table_step_m_;
-  return {(Raw(x + h, y) - Raw(x - h, y)) / (2 * h), (Raw(x, y + h) - Raw(x, y - h)) / (2 * h)};
+  const Node* n0;
+  double wx, wy;
+  if (!Cell(x, y, &n0, &wx, &wy)) {
+    const double h = 0.5 * table_step_m_;
+    return {(Raw(x + h, y) - Raw(x - h, y)) / (2 * h), (Raw(x, y + h) - Raw(x, y - h)) / (2 * h)};
+  }
+  const Node* n1 = n0 + table_n_;
+  const double w00 = (1 - wx) * (1 - wy), w01 = wx * (1 - wy), w10 = (1 - wx) * wy, w11 = wx * wy;
+  return plane_gradient_ +
+         Eigen::Vector2d(w00 * n0[0].dx + w01 * n0[1].dx + w10 * n1[0].dx + w11 * n1[1].dx,
+                         w00 * n0[0].dy + w01 * n0[1].dy + w10 * n1[0].dy + w11 * n1[1].dy);
 }
 
 Eigen::Vector3d Ground::Normal(double x, double y) const {

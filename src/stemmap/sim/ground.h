@@ -17,7 +17,8 @@ class Ground {
   Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_m, double wavelength_m,
          uint64_t seed, double extent_m = 60.0);
 
-  double Height(double x, double y) const;
+  inline double Height(double x, double y) const;
+  // Gradient of the height (its own slope per metre in x and y), smooth across table cells.
   Eigen::Vector2d Gradient(double x, double y) const;
   Eigen::Vector3d Normal(double x, double y) const;
   // Upper bound of |∇g| over the whole field; the renderer's ray march relies on it.
@@ -32,12 +33,18 @@ class Ground {
 
  private:
   double Raw(double x, double y) const;
-  double Bump(double x, double y) const;  // unevenness only, from the table where it covers
+  double BumpFromNoise(double x, double y) const;
   // The unevenness is tabulated (bilinear, fine enough that it matches the noise to < 1 mm),
-  // since the renderer evaluates it millions of times per frame.
-  std::vector<float> bump_table_;
+  // since the renderer evaluates it millions of times per frame; with it, its slope at each node
+  // (central differences), read the same way, for shading normals that do not show the cells.
+  struct Node {
+    float bump_m, dx, dy;
+  };
+  // The cell holding (x, y) and the weights within it; false outside the table.
+  inline bool Cell(double x, double y, const Node** n0, double* wx, double* wy) const;
+  std::vector<Node> table_;
   int table_n_ = 0;
-  double table_step_m_ = 0.1, table_origin_m_ = 0.0;
+  double table_step_m_ = 0.1, inv_table_step_ = 10.0, table_origin_m_ = 0.0;
   Eigen::Vector2d plane_gradient_ = Eigen::Vector2d::Zero();
   double unevenness_m_ = 0.0;
   double wavelength_m_ = 1.0;
@@ -46,5 +53,27 @@ class Ground {
   double slope_deg_ = 0.0;
   ValueNoise noise_;
 };
+
+// Per ray-march step: inline, with the cell found by products rather than divisions.
+bool Ground::Cell(double x, double y, const Node** n0, double* wx, double* wy) const {
+  const double fx = (x - table_origin_m_) * inv_table_step_,
+               fy = (y - table_origin_m_) * inv_table_step_;
+  if (!(fx >= 0.0 && fy >= 0.0 && fx < table_n_ - 1 && fy < table_n_ - 1)) return false;
+  const int j = static_cast<int>(fx), i = static_cast<int>(fy);
+  *wx = fx - j;
+  *wy = fy - i;
+  *n0 = &table_[static_cast<size_t>(i) * table_n_ + j];
+  return true;
+}
+
+double Ground::Height(double x, double y) const {
+  const double plane = plane_gradient_.x() * x + plane_gradient_.y() * y - offset_m_;
+  const Node* n0;
+  double wx, wy;
+  if (!Cell(x, y, &n0, &wx, &wy)) return plane + BumpFromNoise(x, y);
+  const Node* n1 = n0 + table_n_;
+  return plane + (1 - wy) * ((1 - wx) * n0[0].bump_m + wx * n0[1].bump_m) +
+         wy * ((1 - wx) * n1[0].bump_m + wx * n1[1].bump_m);
+}
 
 }  // namespace stemmap::sim

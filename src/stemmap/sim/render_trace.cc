@@ -4,6 +4,7 @@
 #include <limits>
 #include <numbers>
 
+#include "stemmap/core/exp_table.h"
 #include "stemmap/sim/render.h"
 
 namespace stemmap::sim {
@@ -148,8 +149,7 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
     }
   }
   // Aerial perspective: distant things fade toward a bright haze.
-  const double haze =
-      object == kObjSky ? 0.0 : 1.0 - std::exp(-std::min(t_end * dxy, 400.0) / 400.0);
+  const double haze = object == kObjSky ? 0.0 : 1.0 - ExpNeg(std::min(t_end * dxy, 400.0) / 400.0);
   rgb = rgb * static_cast<float>(1.0 - haze) +
         Eigen::Vector3f(0.7f, 0.8f, 0.9f) * static_cast<float>(haze);
   s.rgb = rgb;

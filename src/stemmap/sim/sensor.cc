@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
@@ -61,6 +62,15 @@ SensorModel::SensorModel(const SensorParams& params, const PinholeCamera& camera
   params.Check();
   Rng rng(params.seed ^ 0xA5A5);
   for (float& g : gauss_) g = static_cast<float>(rng.Normal());
+  vignette_.create(camera.height, camera.width, CV_32F);
+  for (int v = 0; v < camera.height; ++v) {
+    float* row = vignette_.ptr<float>(v);
+    for (int u = 0; u < camera.width; ++u) {
+      const double du = (u - camera.cx) / camera.fx, dv = (v - camera.cy) / camera.fy;
+      row[u] =
+          static_cast<float>(1.0 - params.vignetting * std::min(1.0, (du * du + dv * dv) / 0.6));
+    }
+  }
 }
 
 double SensorModel::Meter(const cv::Mat& radiance) const {
@@ -85,6 +95,9 @@ cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s, 
                              int frame_index, double dt_s) {
   const cv::Mat& rad = frame.radiance;
   const int w = rad.cols, h = rad.rows;
+  if (rad.size() != vignette_.size() || frame.depth_m.size() != rad.size()) {
+    throw std::invalid_argument("sensor: frame size differs from the camera's");
+  }
   const double target = params_.ae_target / Meter(rad);
   if (exposure_ < 0) {
     exposure_ = target;
@@ -112,6 +125,7 @@ cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s, 
       return prefix[i] + (prefix[i + 1] - prefix[i]) * f;
     };
     auto* dst = out.ptr<cv::Vec3b>(v);
+    const float* vignette = vignette_.ptr<float>(v);
     size_t g = (Mix64(frame_hash + v) % kGaussTable);
     for (int u = 0; u < w; ++u) {
       const double len = base_px * (1.0 + arm_radius_m / std::max(depth[u], 0.3f));
@@ -121,9 +135,7 @@ cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s, 
       } else {
         c = row[u];
       }
-      const double du = (u - camera_.cx) / camera_.fx, dv = (v - camera_.cy) / camera_.fy;
-      const float vig =
-          static_cast<float>(1.0 - params_.vignetting * std::min(1.0, (du * du + dv * dv) / 0.6));
+      const float vig = vignette[u];
       for (int ch = 0; ch < 3; ++ch) {
         float x = c[ch] * exposure * vig;
         const float sd = std::sqrt(static_cast<float>(params_.shot_noise) * std::max(x, 0.0f) +

@@ -38,6 +38,7 @@ class SensorModel {
   PinholeCamera camera_;
   double exposure_ = -1.0;
   std::vector<float> gauss_;  // precomputed standard normal samples
+  cv::Mat vignette_;          // CV_32F gain per pixel
 };
 
 }  // namespace stemmap::sim

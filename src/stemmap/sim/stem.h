@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 
+#include "stemmap/core/exp_table.h"
 #include "stemmap/core/noise.h"
 
 namespace stemmap::sim {
@@ -90,10 +91,12 @@ class Stem {
   Section MeasureSection(double s, const Eigen::Vector2d& view_xy = Eigen::Vector2d::UnitX()) const;
 
  private:
-  double MeanRadius(double s) const;
+  // Mean radius at height s, and its derivative along s where `slope` is given.
+  double MeanRadius(double s, double* slope = nullptr) const;
   // Bark relief (<= 0) at turn fraction u = azimuth / 2π in [0, 1) and height s.
   double Relief(double u, double s) const;
-  double EllipseFactor(double cos_phi, double sin_phi) const;
+  // Radius of the unit-mean ellipse at azimuth phi, and its derivative in phi where asked.
+  double EllipseFactor(double cos_phi, double sin_phi, double* slope = nullptr) const;
   double Field(const Eigen::Vector3d& p_stem, FieldParts* parts = nullptr) const;  // < 0 inside
   double SurfaceRadius(double phi, double s, double mean_radius) const;
   Eigen::Vector3f Albedo(double u, double s, double relief) const;  // relief = Relief(u, s)
@@ -103,6 +106,8 @@ class Stem {
   Eigen::Quaterniond world_from_stem_;
   Eigen::Vector3d axis_world_;
   double a_unit_, b_unit_;  // ellipse semi-axes for unit mean radius
+  double inv_a_unit_, inv_b_unit_, inv_flare_height_, flare_top_m_;
+  const ExpNegTable* exp_neg_;  // the shared table, looked up once
   double cos_ell_, sin_ell_;
   int n_furrows_;
   double march_lipschitz_;
