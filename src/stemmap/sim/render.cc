@@ -53,6 +53,8 @@ Renderer::Renderer(const Scene& scene, const PinholeCamera& camera, const Render
               .cast<float>();
     }
   }
+  inv_sun_z_ = 1.0 / scene.light.sun_dir_world.z();
+  inv_shadow_texel_ = 1.0 / options.shadow_texel_m;
   BuildShadowMap();
   BuildFieldTables(-shadow_origin_x_);  // the shadow map's square, which covers the scene
 }
@@ -103,7 +105,7 @@ void Renderer::BuildShadowMap() {
 template <typename F>
 Renderer::FieldTable Renderer::FieldTable::Tabulate(double x0, double y0, double texel, int nx,
                                                     int ny, F&& f) {
-  FieldTable table{x0, y0, texel, cv::Mat(ny, nx, CV_32F)};
+  FieldTable table{x0, y0, texel, 1.0 / texel, cv::Mat(ny, nx, CV_32F)};
   for (int i = 0; i < ny; ++i) {
     float* row = table.values.ptr<float>(i);
     for (int j = 0; j < nx; ++j) row[j] = static_cast<float>(f(x0 + j * texel, y0 + i * texel));
@@ -133,22 +135,11 @@ void Renderer::BuildFieldTables(double half) {
   });
 }
 
-bool Renderer::FieldTable::Read(double x, double y, double* v) const {
-  const double gx = (x - origin_x) / texel, gy = (y - origin_y) / texel;
-  const int j = static_cast<int>(std::floor(gx)), i = static_cast<int>(std::floor(gy));
-  if (i < 0 || j < 0 || i + 1 >= values.rows || j + 1 >= values.cols) return false;
-  const float* r0 = values.ptr<float>(i) + j;
-  const float* r1 = values.ptr<float>(i + 1) + j;
-  const double wx = gx - j, wy = gy - i;
-  *v = (1 - wy) * ((1 - wx) * r0[0] + wx * r0[1]) + wy * ((1 - wx) * r1[0] + wx * r1[1]);
-  return true;
-}
-
 double Renderer::SunVisibility(const Eigen::Vector3d& p) const {
   const Lighting& L = scene_.light;
   const Eigen::Vector3d& s = L.sun_dir_world;
   const double zc = L.canopy_base_m;
-  const double k = (zc - p.z()) / s.z();
+  const double k = (zc - p.z()) * inv_sun_z_;
   const Eigen::Vector3d q = p + s * k;
   // Sun flecks: light passes where the crowns open (same pattern for every point along a ray).
   double c;
@@ -157,9 +148,8 @@ double Renderer::SunVisibility(const Eigen::Vector3d& p) const {
   double vis = SmoothStep(th - 0.05, th + 0.08, c);
   if (k <= 0 || vis <= 0) return std::max(vis, 0.0);
   // Trunk shadows from the shadow map, bilinear percentage-closer filtering.
-  const double texel = options_.shadow_texel_m;
-  const double fx = (q.x() - shadow_origin_x_) / texel - 0.5;
-  const double fy = (q.y() - shadow_origin_y_) / texel - 0.5;
+  const double fx = (q.x() - shadow_origin_x_) * inv_shadow_texel_ - 0.5;
+  const double fy = (q.y() - shadow_origin_y_) * inv_shadow_texel_ - 0.5;
   const int j = static_cast<int>(std::floor(fx)), i = static_cast<int>(std::floor(fy));
   if (i < 0 || j < 0 || i + 1 >= shadow_depth_.rows || j + 1 >= shadow_depth_.cols) return vis;
   const double wx = fx - j, wy = fy - i;
@@ -247,7 +237,7 @@ double Renderer::IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
   const double lip = g.LipschitzBound();
   const double dxy = std::sqrt(d.x() * d.x() + d.y() * d.y());  // not hypot: hot, and no overflow
   if (d.z() > lip * dxy) return kInf;                           // climbs faster than any slope
-  const double rate = std::abs(d.z()) + lip * dxy;
+  const double inv_rate = 1.0 / (std::abs(d.z()) + lip * dxy);
   // Skip to where the ray enters the slab of ±bump around the ground plane.
   double t = 0.0;
   const Eigen::Vector2d& pg = g.plane_gradient();
@@ -267,7 +257,7 @@ double Renderer::IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
   constexpr double kRelax = 2.0;
   for (int it = 0; it < 96 && t < t_max; ++it) {
     if (h < 1e-4 * (1.0 + t)) return t;
-    const double t_next = t + std::max(kRelax * h / rate, 1e-4);
+    const double t_next = t + std::max(kRelax * h * inv_rate, 1e-4);
     const Eigen::Vector3d p = o + t_next * d;
     const double h_next = p.z() - g.Height(p.x(), p.y());
     if (h_next < 0) {

@@ -66,14 +66,25 @@ class Renderer {
   // Sun shadow map: distance from the canopy plane along -sun to the first trunk.
   cv::Mat shadow_depth_;
   double shadow_origin_x_ = 0.0, shadow_origin_y_ = 0.0;
+  double inv_shadow_texel_ = 1.0, inv_sun_z_ = 1.0;
   // A smooth field tabulated on a grid of square texels and read bilinearly; Read() is false
   // outside it, where the caller evaluates the field itself.
   struct FieldTable {
-    double origin_x = 0.0, origin_y = 0.0, texel = 1.0;
+    double origin_x = 0.0, origin_y = 0.0, texel = 1.0, inv_texel = 1.0;
     cv::Mat values;  // CV_32F, rows along y
     template <typename F>
     static FieldTable Tabulate(double x0, double y0, double texel, int nx, int ny, F&& f);
-    bool Read(double x, double y, double* v) const;
+    // Read per ray: inline, and with products for the divisions.
+    bool Read(double x, double y, double* v) const {
+      const double gx = (x - origin_x) * inv_texel, gy = (y - origin_y) * inv_texel;
+      if (!(gx >= 0.0 && gy >= 0.0 && gx < values.cols - 1 && gy < values.rows - 1)) return false;
+      const int j = static_cast<int>(gx), i = static_cast<int>(gy);
+      const float* r0 = values.ptr<float>(i) + j;
+      const float* r1 = r0 + values.step1();
+      const double wx = gx - j, wy = gy - i;
+      *v = (1 - wy) * ((1 - wx) * r0[0] + wx * r0[1]) + wy * ((1 - wx) * r1[0] + wx * r1[1]);
+      return true;
+    }
   };
   void BuildFieldTables(double half_extent_m);
   FieldTable fleck_;         // the crowns' openings, on the crown plane
