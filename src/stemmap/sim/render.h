@@ -39,6 +39,7 @@ class Renderer {
     int index;             // tree index, or -(shrub index + 1)
     double min_dist_xy_m;  // nearest the object can be, horizontally
     double centre_az, half_width;
+    const Stem::RayOrigin* origin = nullptr;  // a tree's, from the rays' common origin
   };
   // One ray through the scene; `candidates` are the objects that may lie along it, nearest first.
   Sample Trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d,

@@ -71,8 +71,10 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
     const double t_limit = std::min(t_best, t_ground_max);
     if (c.min_dist_xy_m > t_limit * dxy + 1e-6) break;
     if (c.index >= 0) {
-      const auto point =
-          scene_.trees[c.index].stem.FirstSurfacePoint(o, d, 1e-4, t_limit, 0.25 / camera_.fx);
+      const Stem& stem = scene_.trees[c.index].stem;
+      const double tol = 0.25 / camera_.fx;
+      const auto point = c.origin ? stem.FirstSurfacePoint(*c.origin, d, 1e-4, t_limit, tol)
+                                  : stem.FirstSurfacePoint(o, d, 1e-4, t_limit, tol);
       if (point) {
         t_best = point->t;
         object = kObjTree + c.index;
@@ -206,6 +208,14 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
   std::sort(objects.begin(), objects.end(), [](const Candidate& x, const Candidate& y) {
     return x.min_dist_xy_m < y.min_dist_xy_m;
   });
+  // Every ray of the frame starts at o: each tree's view of it is computed once.
+  std::vector<Stem::RayOrigin> origins;
+  origins.reserve(objects.size());
+  for (Candidate& c : objects) {
+    if (c.index < 0) continue;
+    origins.push_back(scene_.trees[c.index].stem.PrepareOrigin(o));
+    c.origin = &origins.back();
+  }
 
   // Candidate lists per column; a column's azimuth range spans its top and bottom rays.
   std::vector<std::vector<Candidate>> columns(w);

@@ -49,6 +49,7 @@ Stem::Stem(const StemParams& p) : p_(p), exp_neg_(&ExpNegTable::Get()), noise_(p
       Eigen::Vector3d(std::sin(p.lean_rad) * std::cos(p.lean_azimuth_rad),
                       std::sin(p.lean_rad) * std::sin(p.lean_azimuth_rad), std::cos(p.lean_rad));
   world_from_stem_ = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis_world_);
+  stem_from_world_ = world_from_stem_.conjugate().toRotationMatrix();
   a_unit_ = 2.0 / (1.0 + p.axis_ratio);
   b_unit_ = p.axis_ratio * a_unit_;
   inv_a_unit_ = 1.0 / a_unit_;
@@ -161,12 +162,24 @@ std::optional<StemHit> Stem::Intersect(const Eigen::Vector3d& o, const Eigen::Ve
 std::optional<Stem::SurfacePoint> Stem::FirstSurfacePoint(const Eigen::Vector3d& o,
                                                           const Eigen::Vector3d& d, double t_min,
                                                           double t_max, double tol_per_m) const {
-  const Eigen::Quaterniond stem_from_world = world_from_stem_.conjugate();
-  const Eigen::Vector3d os = stem_from_world * (o - p_.base_world);
-  const Eigen::Vector3d ds = stem_from_world * d;
+  return FirstSurfacePoint(PrepareOrigin(o), d, t_min, t_max, tol_per_m);
+}
+
+Stem::RayOrigin Stem::PrepareOrigin(const Eigen::Vector3d& o_world) const {
+  RayOrigin o;
+  o.o_stem = stem_from_world_ * (o_world - p_.base_world);
   // Envelope (relief-free elliptic cylinder) in coordinates where it is circular of radius r(s).
-  const double ox = (os.x() * cos_ell_ + os.y() * sin_ell_) * inv_a_unit_;
-  const double oy = (-os.x() * sin_ell_ + os.y() * cos_ell_) * inv_b_unit_;
+  o.ox = (o.o_stem.x() * cos_ell_ + o.o_stem.y() * sin_ell_) * inv_a_unit_;
+  o.oy = (-o.o_stem.x() * sin_ell_ + o.o_stem.y() * cos_ell_) * inv_b_unit_;
+  return o;
+}
+
+std::optional<Stem::SurfacePoint> Stem::FirstSurfacePoint(const RayOrigin& origin,
+                                                          const Eigen::Vector3d& d, double t_min,
+                                                          double t_max, double tol_per_m) const {
+  const Eigen::Vector3d& os = origin.o_stem;
+  const Eigen::Vector3d ds = stem_from_world_ * d;
+  const double ox = origin.ox, oy = origin.oy;
   const double dx = (ds.x() * cos_ell_ + ds.y() * sin_ell_) * inv_a_unit_;
   const double dy = (-ds.x() * sin_ell_ + ds.y() * cos_ell_) * inv_b_unit_;
   const double qa = dx * dx + dy * dy;

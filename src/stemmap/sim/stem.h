@@ -74,6 +74,15 @@ class Stem {
   std::optional<SurfacePoint> FirstSurfacePoint(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
                                                 double t_min, double t_max,
                                                 double tol_per_m = 1e-5) const;
+  // A ray origin in the stem's frames, for the many rays of one camera position.
+  struct RayOrigin {
+    Eigen::Vector3d o_stem;  // stem frame
+    double ox, oy;           // scaled so that the envelope's section is a circle
+  };
+  RayOrigin PrepareOrigin(const Eigen::Vector3d& o_world) const;
+  std::optional<SurfacePoint> FirstSurfacePoint(const RayOrigin& o, const Eigen::Vector3d& d,
+                                                double t_min, double t_max,
+                                                double tol_per_m = 1e-5) const;
   StemHit Shade(const SurfacePoint& point) const;
   // Entry distance of the ray into the stem's smooth envelope (no bark relief), or infinity.
   // Cheap enough to fill a shadow map.
@@ -104,6 +113,7 @@ class Stem {
 
   StemParams p_;
   Eigen::Quaterniond world_from_stem_;
+  Eigen::Matrix3d stem_from_world_;  // the same rotation, inverted, as a matrix (per ray)
   Eigen::Vector3d axis_world_;
   double a_unit_, b_unit_;  // ellipse semi-axes for unit mean radius
   double inv_a_unit_, inv_b_unit_, inv_flare_height_, flare_top_m_;
