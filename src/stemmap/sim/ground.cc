@@ -20,6 +20,7 @@ Ground::Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_
   table_n_ = static_cast<int>(std::ceil(2.0 * extent_m / table_step_m_)) + 2;
   const size_t n = static_cast<size_t>(table_n_);
   table_.resize(n * n);
+#pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {
     for (size_t j = 0; j < n; ++j) {
       const double x = table_origin_m_ + j * table_step_m_, y = table_origin_m_ + i * table_step_m_;

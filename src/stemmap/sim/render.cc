@@ -71,6 +71,13 @@ void Renderer::BuildShadowMap() {
   shadow_origin_y_ = -half;
   shadow_depth_ = cv::Mat(n, n, CV_32F, cv::Scalar(1e9));
   const Eigen::Vector3d down = -s;
+  // Each tree's shadow covers a rectangle of texels; the rows are then filled in parallel, each
+  // texel keeping its nearest trunk (the same whatever the order).
+  struct Rect {
+    const Stem* stem;
+    int i0, i1, j0, j1;
+  };
+  std::vector<Rect> rects;
   for (const SceneTree& tree : scene_.trees) {
     const Stem& stem = tree.stem;
     const double s_top = std::min(stem.params().height_m,
@@ -86,16 +93,20 @@ void Renderer::BuildShadowMap() {
       y1 = std::max(y1, q.y());
     }
     const double margin = stem.BoundRadius(-0.6) / s.z() + 2 * texel;
-    const int i0 = std::max(0, static_cast<int>((y0 - margin - shadow_origin_y_) / texel));
-    const int i1 = std::min(n - 1, static_cast<int>((y1 + margin - shadow_origin_y_) / texel));
-    const int j0 = std::max(0, static_cast<int>((x0 - margin - shadow_origin_x_) / texel));
-    const int j1 = std::min(n - 1, static_cast<int>((x1 + margin - shadow_origin_x_) / texel));
-    for (int i = i0; i <= i1; ++i) {
-      float* row = shadow_depth_.ptr<float>(i);
-      for (int j = j0; j <= j1; ++j) {
+    rects.push_back({&stem, std::max(0, static_cast<int>((y0 - margin - shadow_origin_y_) / texel)),
+                     std::min(n - 1, static_cast<int>((y1 + margin - shadow_origin_y_) / texel)),
+                     std::max(0, static_cast<int>((x0 - margin - shadow_origin_x_) / texel)),
+                     std::min(n - 1, static_cast<int>((x1 + margin - shadow_origin_x_) / texel))});
+  }
+#pragma omp parallel for schedule(dynamic, 16)
+  for (int i = 0; i < n; ++i) {
+    float* row = shadow_depth_.ptr<float>(i);
+    for (const Rect& r : rects) {
+      if (i < r.i0 || i > r.i1) continue;
+      for (int j = r.j0; j <= r.j1; ++j) {
         const Eigen::Vector3d o(shadow_origin_x_ + (j + 0.5) * texel,
                                 shadow_origin_y_ + (i + 0.5) * texel, zc);
-        const double t = stem.EnvelopeEntry(o, down);
+        const double t = r.stem->EnvelopeEntry(o, down);
         if (t < row[j]) row[j] = static_cast<float>(t);
       }
     }
@@ -106,6 +117,7 @@ template <typename F>
 Renderer::FieldTable Renderer::FieldTable::Tabulate(double x0, double y0, double texel, int nx,
                                                     int ny, F&& f) {
   FieldTable table{x0, y0, texel, 1.0 / texel, cv::Mat(ny, nx, CV_32F)};
+#pragma omp parallel for schedule(static)
   for (int i = 0; i < ny; ++i) {
     float* row = table.values.ptr<float>(i);
     for (int j = 0; j < nx; ++j) row[j] = static_cast<float>(f(x0 + j * texel, y0 + i * texel));
