@@ -17,14 +17,14 @@ class ValueNoise {
 
   inline double Noise2(double x, double y) const;
   inline double Noise3(double x, double y, double z) const;
-  // Noise2 that repeats every `period` units in x (1 <= period <= kPeriod), for azimuths.
-  inline double Noise2PeriodicX(double x, double y, int period) const;
+  // Noise2 that repeats every `period` units in x (1 <= period <= kPeriod), for azimuths; with
+  // its derivatives in x and y where `grad` is given.
+  inline double Noise2PeriodicX(double x, double y, int period, double* grad = nullptr) const;
   // Fractal sums of `octaves` octaves, each twice the frequency and `gain` times the amplitude,
   // normalised to [-1, 1].
   inline double Fbm2(double x, double y, int octaves, double gain = 0.5) const;
   inline double Fbm3(double x, double y, double z, int octaves, double gain = 0.5) const;
-  inline double Fbm2PeriodicX(double x, double y, int period, int octaves,
-                              double gain = 0.5) const;
+  inline double Fbm2PeriodicX(double x, double y, int period, int octaves, double gain = 0.5) const;
   // No Noise2/Noise3 value exceeds this (they interpolate between lattice values).
   double MaxValue() const { return max_value_; }
 
@@ -38,6 +38,7 @@ class ValueNoise {
     return Lerp(a, b, ty);
   }
   static double Fade(double t) { return t * t * t * (t * (t * 6.0 - 15.0) + 10.0); }
+  static double FadeSlope(double t) { return 30.0 * t * t * (t * (t - 2.0) + 1.0); }
   static double Lerp(double a, double b, double t) { return a + (b - a) * t; }
   // floor() without a libm call on CPUs lacking SSE4.1; exact for |x| < 2^31.
   static int64_t FloorInt(double x) {
@@ -73,7 +74,7 @@ double ValueNoise::Noise3(double x, double y, double z) const {
   return Lerp(c[0], c[1], tz);
 }
 
-double ValueNoise::Noise2PeriodicX(double x, double y, int period) const {
+double ValueNoise::Noise2PeriodicX(double x, double y, int period, double* grad) const {
   const int64_t fx = FloorInt(x), fy = FloorInt(y);
   // Azimuths come in as x in [0, period): no remainder needed there, since a division costs many
   // times more than the rest of the lookup, and this runs per bark sample.
@@ -86,7 +87,15 @@ double ValueNoise::Noise2PeriodicX(double x, double y, int period) const {
   }
   const int ix1 = ix + 1 == period ? 0 : ix + 1;
   const int iy = static_cast<int>(fy & (kPeriod - 1));
-  return Interp2(ix, ix1, iy, Fade(x - static_cast<double>(fx)), Fade(y - static_cast<double>(fy)));
+  const double rx = x - static_cast<double>(fx), ry = y - static_cast<double>(fy);
+  if (!grad) return Interp2(ix, ix1, iy, Fade(rx), Fade(ry));
+  const double tx = Fade(rx), ty = Fade(ry);
+  const double v00 = Value(ix, iy), v10 = Value(ix1, iy);
+  const double v01 = Value(ix, iy + 1), v11 = Value(ix1, iy + 1);
+  const double a = Lerp(v00, v10, tx), b = Lerp(v01, v11, tx);
+  grad[0] = ((v10 - v00) * (1.0 - ty) + (v11 - v01) * ty) * FadeSlope(rx);
+  grad[1] = (b - a) * FadeSlope(ry);
+  return Lerp(a, b, ty);
 }
 
 // The sums inline too: with the octaves and gain known at the call, the loop unrolls and the

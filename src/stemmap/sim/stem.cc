@@ -92,17 +92,32 @@ double Stem::TurnFraction(double x, double y) {
   return u < 0 ? u + 1.0 : u;
 }
 
-double Stem::Relief(double u, double s) const {
-  // Furrows wander: a smooth, azimuth-periodic warp of the plate coordinate.
-  const double warp = 1.6 * noise_.Noise2PeriodicX(u * 5.0, 1.5 * s, 5);
+double Stem::Relief(double u, double s, double* grad) const {
+  // Furrows wander: a smooth, azimuth-periodic warp of the plate coordinate. `grad`, where asked,
+  // follows each piece: d/du and d/ds of the relief, one-sided at the profiles' corners.
+  double g_warp[2], g_depth[2];
+  const double warp = 1.6 * noise_.Noise2PeriodicX(u * 5.0, 1.5 * s, 5, grad ? g_warp : nullptr);
   const double uf = u * n_furrows_ + warp;
   const double cell = uf - std::floor(uf);
   const double d_furrow = std::min(cell, 1.0 - cell);
   double relief = 0.0;
+  if (grad) grad[0] = grad[1] = 0.0;
   if (d_furrow < kFurrowWidth) {
-    const double depth_mod = 0.65 + 0.35 * noise_.Noise2PeriodicX(u * 6.0, 2.5 * s, 6);
+    const double depth_mod =
+        0.65 + 0.35 * noise_.Noise2PeriodicX(u * 6.0, 2.5 * s, 6, grad ? g_depth : nullptr);
     const double k = 1.0 - d_furrow * kInvFurrowWidth;
-    relief -= p_.furrow_depth_m * depth_mod * k * std::sqrt(k);
+    const double sqrt_k = std::sqrt(k);
+    relief -= p_.furrow_depth_m * depth_mod * k * sqrt_k;
+    if (grad) {
+      // d(d_furrow) = ±d(uf); d(uf)/du = n + 1.6·5·∂x warp noise, d(uf)/ds = 1.6·1.5·∂y.
+      const double side = cell < 0.5 ? 1.0 : -1.0;
+      const double dk_du = -side * (n_furrows_ + 8.0 * g_warp[0]) * kInvFurrowWidth;
+      const double dk_ds = -side * 2.4 * g_warp[1] * kInvFurrowWidth;
+      grad[0] = -p_.furrow_depth_m *
+                (0.35 * 6.0 * g_depth[0] * k * sqrt_k + depth_mod * 1.5 * sqrt_k * dk_du);
+      grad[1] = -p_.furrow_depth_m *
+                (0.35 * 2.5 * g_depth[1] * k * sqrt_k + depth_mod * 1.5 * sqrt_k * dk_ds);
+    }
   }
   // Horizontal cracks split the ridges into plates, offset per ridge.
   const auto ridge = static_cast<uint64_t>(static_cast<int64_t>(std::floor(uf)) + 100000);
@@ -111,7 +126,14 @@ double Stem::Relief(double u, double s) const {
   const double vc = v - std::floor(v);
   const double d_crack = std::min(vc, 1.0 - vc);
   if (d_crack < kCrackWidth) {
-    relief = std::min(relief, -0.3 * p_.furrow_depth_m * (1.0 - d_crack * kInvCrackWidth));
+    const double crack = -0.3 * p_.furrow_depth_m * (1.0 - d_crack * kInvCrackWidth);
+    if (crack < relief) {
+      relief = crack;
+      if (grad) {
+        grad[0] = 0.0;
+        grad[1] = 0.3 * p_.furrow_depth_m * kInvCrackWidth * (vc < 0.5 ? 1.0 : -1.0) / plate_len;
+      }
+    }
   }
   return relief;
 }
@@ -272,18 +294,16 @@ StemHit Stem::Shade(const SurfacePoint& point) const {
   const double rho = std::max(parts.rho, 1e-9);
   const double u = parts.u;
   const double relief = parts.relief;
-  // S = E(phi) M(s) + relief: the smooth part differentiated exactly, the relief forward
-  // differenced 0.4 mm along the surface (far under a pixel at any range the camera sees).
+  // S = E(phi) M(s) + relief, each part differentiated exactly.
   const Eigen::Vector3d e_rho(q.x() / rho, q.y() / rho, 0.0), e_phi(-e_rho.y(), e_rho.x(), 0.0);
   double de_dphi;
   const double e = EllipseFactor(e_rho.x(), e_rho.y(), &de_dphi);
   double dm_ds;
   MeanRadius(q.z(), &dm_ds);
-  const double h = 4e-4;
-  double u_h = u + h / (rho * kTwoPi);
-  u_h -= std::floor(u_h);
-  const double dS_dphi = de_dphi * parts.mean_radius + (Relief(u_h, q.z()) - relief) * rho / h;
-  const double dS_ds = e * dm_ds + (Relief(u, q.z() + h) - relief) / h;
+  double relief_grad[2];
+  Relief(u, q.z(), relief_grad);
+  const double dS_dphi = de_dphi * parts.mean_radius + relief_grad[0] / kTwoPi;
+  const double dS_ds = e * dm_ds + relief_grad[1];
   const Eigen::Vector3d grad = e_rho - (dS_dphi / rho) * e_phi - dS_ds * Eigen::Vector3d::UnitZ();
   StemHit hit;
   hit.t = point.t;

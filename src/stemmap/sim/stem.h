@@ -102,8 +102,9 @@ class Stem {
  private:
   // Mean radius at height s, and its derivative along s where `slope` is given.
   double MeanRadius(double s, double* slope = nullptr) const;
-  // Bark relief (<= 0) at turn fraction u = azimuth / 2π in [0, 1) and height s.
-  double Relief(double u, double s) const;
+  // Bark relief (<= 0) at turn fraction u = azimuth / 2π in [0, 1) and height s; with its
+  // derivatives in u and s where `grad` is given.
+  double Relief(double u, double s, double* grad = nullptr) const;
   // Radius of the unit-mean ellipse at azimuth phi, and its derivative in phi where asked.
   double EllipseFactor(double cos_phi, double sin_phi, double* slope = nullptr) const;
   double Field(const Eigen::Vector3d& p_stem, FieldParts* parts = nullptr) const;  // < 0 inside
