@@ -111,6 +111,12 @@ cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s, 
   const uint64_t frame_hash = Mix64(params_.seed ^ (static_cast<uint64_t>(frame_index) << 20));
   const float exposure = static_cast<float>(exposure_);
   static const ToneTable tone;
+  // Locals, not members: the 8-bit stores below may alias anything, which would otherwise
+  // reload every parameter per pixel.
+  const float shot = static_cast<float>(params_.shot_noise);
+  const float read = static_cast<float>(params_.read_noise);
+  const float* gauss = gauss_.data();
+  const size_t n = 3 * static_cast<size_t>(w);
 #pragma omp parallel for schedule(static)
   for (int v = 0; v < h; ++v) {
     const auto* row = rad.ptr<cv::Vec3f>(v);
@@ -124,9 +130,9 @@ cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s, 
       const float f = static_cast<float>(x - i);
       return prefix[i] + (prefix[i + 1] - prefix[i]) * f;
     };
-    auto* dst = out.ptr<cv::Vec3b>(v);
+    // Blurred, exposed and vignetted, as RGB triples.
+    std::vector<float> lin(n);
     const float* vignette = vignette_.ptr<float>(v);
-    size_t g = (Mix64(frame_hash + v) % kGaussTable);
     for (int u = 0; u < w; ++u) {
       const double len = base_px * (1.0 + arm_radius_m / std::max(depth[u], 0.3f));
       cv::Vec3f c;
@@ -135,16 +141,26 @@ cv::Mat SensorModel::Capture(const RenderBuffers& frame, double yaw_rate_rad_s, 
       } else {
         c = row[u];
       }
-      const float vig = vignette[u];
-      for (int ch = 0; ch < 3; ++ch) {
-        float x = c[ch] * exposure * vig;
-        const float sd = std::sqrt(static_cast<float>(params_.shot_noise) * std::max(x, 0.0f) +
-                                   static_cast<float>(params_.read_noise));
-        x += sd * gauss_[g];
-        g = (g + 1) & (kGaussTable - 1);
-        // Output is BGR; radiance is RGB.
-        dst[u][2 - ch] = tone(x);
+      for (int ch = 0; ch < 3; ++ch) lin[3 * u + ch] = c[ch] * exposure * vignette[u];
+    }
+    // Shot and read noise, one table sample per value; a plain loop over contiguous samples
+    // vectorizes, so the wrap at the table's end is handled apart.
+    const size_t g0 = Mix64(frame_hash + v) % kGaussTable;
+    if (g0 + n <= kGaussTable) {
+      const float* gv = gauss + g0;
+      for (size_t k = 0; k < n; ++k) {
+        lin[k] += std::sqrt(shot * std::max(lin[k], 0.0f) + read) * gv[k];
       }
+    } else {
+      for (size_t k = 0; k < n; ++k) {
+        lin[k] +=
+            std::sqrt(shot * std::max(lin[k], 0.0f) + read) * gauss[(g0 + k) & (kGaussTable - 1)];
+      }
+    }
+    // Output is BGR; radiance is RGB.
+    auto* dst = out.ptr<cv::Vec3b>(v);
+    for (int u = 0; u < w; ++u) {
+      for (int ch = 0; ch < 3; ++ch) dst[u][2 - ch] = tone(lin[3 * u + ch]);
     }
   }
   return out;
