@@ -280,6 +280,9 @@ double Renderer::IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
         const double mid = lo + (hi - lo) * h_lo / (h_lo - h_hi);
         const Eigen::Vector3d pm = o + mid * d;
         const double h_mid = pm.z() - g.Height(pm.x(), pm.y());
+        // Done when the gap left, over the rate the ray closes on the ground, is under 1e-4 of
+        // the range: the hit then moves the texture by far less than a pixel's footprint.
+        if (std::abs(h_mid) * (hi - lo) < 1e-4 * (1.0 + mid) * (h_lo - h_hi)) return mid;
         if (h_mid < 0) {
           hi = mid;
           h_hi = h_mid;
