@@ -8,6 +8,7 @@
 #include <numbers>
 
 #include "stemmap/core/error.h"
+#include "stemmap/core/fast_math.h"
 #include "stemmap/core/rng.h"
 
 namespace stemmap::sim {
@@ -200,7 +201,7 @@ Eigen::Vector3f Renderer::Sky(const Eigen::Vector3d& d) const {
 
 Eigen::Vector3f Renderer::Wall(const Eigen::Vector3d& p, const Eigen::Vector3d& d) const {
   // The forest beyond the modelled trees: dark distant crowns and trunks, a few bright openings.
-  const double phi = std::atan2(p.y(), p.x());
+  const double phi = FastAtan2(p.y(), p.x());
   const double z = p.z() - scene_.ground.Height(p.x(), p.y());
   const double u = phi * wall_radius_m_;  // metres along the wall
   const Eigen::Vector3f shade = scene_.light.sky_rgb;

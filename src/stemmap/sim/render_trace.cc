@@ -4,7 +4,7 @@
 #include <limits>
 #include <numbers>
 
-#include "stemmap/core/exp_table.h"
+#include "stemmap/core/fast_math.h"
 #include "stemmap/sim/render.h"
 
 namespace stemmap::sim {

@@ -6,7 +6,7 @@
 #include <numbers>
 #include <vector>
 
-#include "stemmap/core/exp_table.h"
+#include "stemmap/core/fast_math.h"
 #include "stemmap/core/rng.h"
 
 namespace stemmap::sim {
@@ -88,7 +88,7 @@ double Stem::BoundRadius(double s) const {
 }
 
 double Stem::TurnFraction(double x, double y) {
-  const double u = std::atan2(y, x) / kTwoPi;
+  const double u = FastAtan2(y, x) / kTwoPi;
   return u < 0 ? u + 1.0 : u;
 }
 
@@ -164,7 +164,7 @@ double Stem::Field(const Eigen::Vector3d& q, FieldParts* parts) const {
   const double rho = std::sqrt(q.x() * q.x() + q.y() * q.y());  // not hypot: hot, and no overflow
   if (rho < 1e-9) return -MeanRadius(q.z());
   const double e = EllipseFactor(q.x() / rho, q.y() / rho);
-  const double phi = std::atan2(q.y(), q.x());
+  const double phi = FastAtan2(q.y(), q.x());
   double u = phi / kTwoPi;  // as TurnFraction
   if (u < 0) u += 1.0;
   const double mean_radius = MeanRadius(q.z());
@@ -283,7 +283,7 @@ StemHit Stem::Shade(const SurfacePoint& point) const {
   if (!parts.valid) {
     parts.valid = true;
     parts.rho = std::sqrt(q.x() * q.x() + q.y() * q.y());
-    parts.phi = std::atan2(q.y(), q.x());
+    parts.phi = FastAtan2(q.y(), q.x());
     parts.u = TurnFraction(q.x(), q.y());
     parts.mean_radius = MeanRadius(q.z());
     parts.relief = Relief(parts.u, q.z());

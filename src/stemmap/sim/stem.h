@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <optional>
 
-#include "stemmap/core/exp_table.h"
+#include "stemmap/core/fast_math.h"
 #include "stemmap/core/noise.h"
 
 namespace stemmap::sim {
