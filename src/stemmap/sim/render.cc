@@ -136,6 +136,9 @@ void Renderer::BuildFieldTables(double half) {
   ground_patch_ = FieldTable::Tabulate(-half, -half, kFieldTexelM, nf, nf, [&](double x, double y) {
     return ground_noise_.Fbm2(x / 3.0, y / 3.0, 3);
   });
+  canopy_tint_ = FieldTable::Tabulate(-half, -half, kFieldTexelM, nf, nf, [&](double x, double y) {
+    return canopy_noise_.Noise3(x, y, 3.3);
+  });
   const double u0 = -std::numbers::pi * wall_radius_m_ - kWallTexelM;
   const int nu =
       static_cast<int>(std::ceil(2.0 * std::numbers::pi * wall_radius_m_ / kWallTexelM)) + 4;

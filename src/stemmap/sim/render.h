@@ -90,6 +90,7 @@ class Renderer {
   void BuildFieldTables(double half_extent_m);
   FieldTable fleck_;         // the crowns' openings, on the crown plane
   FieldTable ground_patch_;  // litter against green patches, on the ground plane
+  FieldTable canopy_tint_;   // the foliage's shade, across the crowns
   // The distant forest, unrolled: u = metres along the wall, z = height above the ground.
   FieldTable wall_crown_line_;  // along u only
   FieldTable wall_opening_;

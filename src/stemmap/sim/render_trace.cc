@@ -137,8 +137,10 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
         const double v = canopy_noise_.Fbm3(p.x() / 3.5, p.y() / 3.5, p.z() / 2.5, 2);
         const double alpha = std::clamp((v - th) * 8.0, 0.0, 0.97);
         if (alpha > 0) {
-          const float tint =
-              static_cast<float>(0.8 + 0.4 * canopy_noise_.Noise3(p.x(), p.y(), 3.3));
+          double shade;
+          if (!canopy_tint_.Read(p.x(), p.y(), &shade))
+            shade = canopy_noise_.Noise3(p.x(), p.y(), 3.3);
+          const float tint = static_cast<float>(0.8 + 0.4 * shade);
           acc += leaf * static_cast<float>(transmit * alpha) * tint;
           transmit *= 1.0 - alpha;
           if (transmit < 0.5 && object != kObjCanopy && t < t_end) {
@@ -211,11 +213,20 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
   // Every ray of the frame starts at o: each tree's view of it is computed once.
   std::vector<Stem::RayOrigin> origins;
   origins.reserve(objects.size());
+  std::vector<const Stem::RayOrigin*> tree_origin(scene_.trees.size(), nullptr);
   for (Candidate& c : objects) {
     if (c.index < 0) continue;
     origins.push_back(scene_.trees[c.index].stem.PrepareOrigin(o));
-    c.origin = &origins.back();
+    c.origin = tree_origin[c.index] = &origins.back();
   }
+  // Whether a ray of this frame meets tree i.
+  auto hits_tree = [&](int i, const Eigen::Vector3d& d) {
+    const Stem& stem = scene_.trees[i].stem;
+    const double tol = 0.25 / camera_.fx;
+    return (tree_origin[i] ? stem.FirstSurfacePoint(*tree_origin[i], d, 1e-4, kInf, tol)
+                           : stem.FirstSurfacePoint(o, d, 1e-4, kInf, tol))
+        .has_value();
+  };
 
   // Candidate lists per column; a column's azimuth range spans its top and bottom rays.
   std::vector<std::vector<Candidate>> columns(w);
@@ -291,9 +302,7 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
       }
       const bool a_front = is_front(id, dep, u, u + 1);
       const int front = a_front ? a : b;
-      const bool hit = scene_.trees[front - kObjTree]
-                           .stem.FirstSurfacePoint(o, rot * rc, 1e-4, kInf, 0.25 / camera_.fx)
-                           .has_value();
+      const bool hit = hits_tree(front - kObjTree, rot * rc);
       if (hit == a_front) {
         mark[u + 1] |= kLeft;
       } else {
@@ -318,7 +327,7 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
       const bool full = (mark[u] & kFull) || mark[u] == (kLeft | kRight);
       const int other = mark[u] == kRight ? u + 1 : u - 1;
       const bool u_front = !full && is_front(id, dep, u, other);
-      const Stem* stem = full ? nullptr : &scene_.trees[id[u_front ? u : other] - kObjTree].stem;
+      const int tree = full ? -1 : id[u_front ? u : other] - kObjTree;
       cv::Vec3f sum = centre[u];
       for (int k = 0; k < options_.edge_samples; ++k) {
         const Eigen::Vector3d rc =
@@ -327,8 +336,7 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
           const Sample s = Trace(o, rot * rc, columns[u]);
           sum += cv::Vec3f(s.rgb.x(), s.rgb.y(), s.rgb.z());
         } else {
-          const bool hit =
-              stem->FirstSurfacePoint(o, rot * rc, 1e-4, kInf, 0.25 / camera_.fx).has_value();
+          const bool hit = hits_tree(tree, rot * rc);
           sum += centre[hit == u_front ? u : other];
         }
       }
