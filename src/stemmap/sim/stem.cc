@@ -65,6 +65,10 @@ Stem::Stem(const StemParams& p) : p_(p), exp_neg_(&ExpNegTable::Get()), noise_(p
       p.furrow_depth_m * 1.3 * (n_furrows_ + 30) / (kFurrowWidth * kTwoPi);
   const double r_min = std::max(0.01, MeanRadius(std::min(p.height_m, 4.0)));
   march_lipschitz_ = 1.3 + relief_slope_per_rad / r_min;
+  // The warp moves the plate coordinate by at most 1.6 either way of [0, n_furrows_).
+  for (int64_t ridge = kFirstRidge; ridge <= n_furrows_ + 2; ++ridge) {
+    plates_.push_back(HashPlates(ridge));
+  }
   // The mean radius shrinks upward when the stem tapers, so its largest value is at the bottom.
   envelope_bound_m_ = p.taper_m_per_m >= 0 ? MeanRadius(-kBelowGroundM) : -1.0;
 }
@@ -120,9 +124,9 @@ double Stem::Relief(double u, double s, double* grad) const {
     }
   }
   // Horizontal cracks split the ridges into plates, offset per ridge.
-  const auto ridge = static_cast<uint64_t>(static_cast<int64_t>(std::floor(uf)) + 100000);
-  const double plate_len = kPlateLengthM * (0.6 + 1.2 * HashToUnit(HashCombine(ridge, p_.seed)));
-  const double v = s / plate_len + HashToUnit(HashCombine(p_.seed, ridge));
+  const Plates plates = RidgePlates(static_cast<int64_t>(std::floor(uf)));
+  const double plate_len = plates.length_m;
+  const double v = s / plate_len + plates.offset;
   const double vc = v - std::floor(v);
   const double d_crack = std::min(vc, 1.0 - vc);
   if (d_crack < kCrackWidth) {
@@ -136,6 +140,12 @@ double Stem::Relief(double u, double s, double* grad) const {
     }
   }
   return relief;
+}
+
+Stem::Plates Stem::HashPlates(int64_t ridge) const {
+  const auto key = static_cast<uint64_t>(ridge + 100000);
+  return {kPlateLengthM * (0.6 + 1.2 * HashToUnit(HashCombine(key, p_.seed))),
+          HashToUnit(HashCombine(p_.seed, key))};
 }
 
 double Stem::EllipseFactor(double c, double sn, double* slope) const {

@@ -4,6 +4,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <optional>
+#include <vector>
 
 #include "stemmap/core/fast_math.h"
 #include "stemmap/core/noise.h"
@@ -107,6 +108,17 @@ class Stem {
   double Relief(double u, double s, double* grad = nullptr) const;
   // Radius of the unit-mean ellipse at azimuth phi, and its derivative in phi where asked.
   double EllipseFactor(double cos_phi, double sin_phi, double* slope = nullptr) const;
+  // Each bark ridge's plates: their length and the offset of their cracks, from a hash of the
+  // ridge; tabulated for the stem's ridges, whose hashes would otherwise be most of a lookup.
+  struct Plates {
+    double length_m, offset;
+  };
+  static constexpr int64_t kFirstRidge = -2;
+  Plates HashPlates(int64_t ridge) const;
+  Plates RidgePlates(int64_t ridge) const {
+    const uint64_t k = static_cast<uint64_t>(ridge - kFirstRidge);
+    return k < plates_.size() ? plates_[k] : HashPlates(ridge);
+  }
   double Field(const Eigen::Vector3d& p_stem, FieldParts* parts = nullptr) const;  // < 0 inside
   double SurfaceRadius(double phi, double s, double mean_radius) const;
   Eigen::Vector3f Albedo(double u, double s, double relief) const;  // relief = Relief(u, s)
@@ -121,6 +133,7 @@ class Stem {
   const ExpNegTable* exp_neg_;  // the shared table, looked up once
   double cos_ell_, sin_ell_;
   int n_furrows_;
+  std::vector<Plates> plates_;  // RidgePlates() from kFirstRidge on
   double march_lipschitz_;
   double envelope_bound_m_;  // largest mean radius over the stem's length, or -1 if unknown
   ValueNoise noise_;
