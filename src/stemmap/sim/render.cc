@@ -307,13 +307,23 @@ double Renderer::IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
   return kInf;
 }
 
-bool Renderer::IntersectShrub(int k, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                              double t_max, double* t_hit, Eigen::Vector3d* n,
-                              Eigen::Vector3f* albedo) const {
+Renderer::ShrubView Renderer::ViewShrub(int k, const Eigen::Vector3d& o) const {
   const Shrub& sh = scene_.shrubs[k];
-  const Eigen::Vector3d os = (o - sh.centre).cwiseQuotient(sh.radii_m);
-  const Eigen::Vector3d ds = d.cwiseQuotient(sh.radii_m);
-  const double a = ds.squaredNorm(), b = os.dot(ds), c = os.squaredNorm() - 1.0;
+  ShrubView view;
+  view.inv_radii = sh.radii_m.cwiseInverse();
+  view.o_scaled = (o - sh.centre).cwiseProduct(view.inv_radii);
+  view.c = view.o_scaled.squaredNorm() - 1.0;
+  return view;
+}
+
+bool Renderer::IntersectShrub(int k, const ShrubView& view, const Eigen::Vector3d& o,
+                              const Eigen::Vector3d& d, double t_max, double* t_hit,
+                              Eigen::Vector3d* n, Eigen::Vector3f* albedo) const {
+  const Shrub& sh = scene_.shrubs[k];
+  // The ellipsoid scaled to the unit sphere: the ray's point at t is os + t ds there.
+  const Eigen::Vector3d& os = view.o_scaled;
+  const Eigen::Vector3d ds = d.cwiseProduct(view.inv_radii);
+  const double a = ds.squaredNorm(), b = os.dot(ds), c = view.c;
   const double disc = b * b - a * c;
   if (disc <= 0) return false;
   const double sq = std::sqrt(disc);
@@ -335,7 +345,7 @@ bool Renderer::IntersectShrub(int k, const Eigen::Vector3d& o, const Eigen::Vect
   if (0.6 * (1.0 - std::sqrt(q_min2)) <= centre_needed) return false;
   for (double t = t0; t < t1; t += step) {
     const Eigen::Vector3d pw = o + t * d;
-    const Eigen::Vector3d q = (pw - sh.centre).cwiseQuotient(sh.radii_m);
+    const Eigen::Vector3d q = os + t * ds;
     const double centre = 0.6 * (1.0 - q.norm());
     if (centre <= centre_needed) continue;
     const Eigen::Vector3d p = pw + off;

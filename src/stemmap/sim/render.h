@@ -35,11 +35,17 @@ class Renderer {
     float t = 0.0f;  // ray length
     int object = 0;  // 0 sky, 1 ground, 2 wall, 3 canopy, 100+ trees, 100000+ shrubs
   };
+  // A shrub seen from the frame's ray origin: what its ellipsoid test needs of o, once a frame.
+  struct ShrubView {
+    Eigen::Vector3d o_scaled, inv_radii;
+    double c;
+  };
   struct Candidate {
     int index;             // tree index, or -(shrub index + 1)
     double min_dist_xy_m;  // nearest the object can be, horizontally
     double centre_az, half_width;
     const Stem::RayOrigin* origin = nullptr;  // a tree's, from the rays' common origin
+    const ShrubView* shrub = nullptr;         // a shrub's, likewise
   };
   // One ray through the scene; `candidates` are the objects that may lie along it, nearest first.
   Sample Trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
@@ -53,8 +59,10 @@ class Renderer {
   Eigen::Vector3f Wall(const Eigen::Vector3d& p, const Eigen::Vector3d& d) const;
   Eigen::Vector3f GroundAlbedo(double x, double y) const;
   double IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max) const;
-  bool IntersectShrub(int k, const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max,
-                      double* t, Eigen::Vector3d* n, Eigen::Vector3f* albedo) const;
+  ShrubView ViewShrub(int k, const Eigen::Vector3d& o) const;
+  bool IntersectShrub(int k, const ShrubView& view, const Eigen::Vector3d& o,
+                      const Eigen::Vector3d& d, double t_max, double* t, Eigen::Vector3d* n,
+                      Eigen::Vector3f* albedo) const;
   void BuildShadowMap();
   std::vector<Candidate> ColumnCandidates(const Eigen::Vector3d& cam_centre,
                                           const std::vector<Candidate>& objects, double col_az,

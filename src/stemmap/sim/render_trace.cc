@@ -84,7 +84,8 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
       double t;
       Eigen::Vector3d n;
       Eigen::Vector3f a;
-      if (IntersectShrub(-c.index - 1, o, d, t_limit, &t, &n, &a)) {
+      const int k = -c.index - 1;
+      if (IntersectShrub(k, c.shrub ? *c.shrub : ViewShrub(k, o), o, d, t_limit, &t, &n, &a)) {
         t_best = t;
         object = kObjShrub + (-c.index - 1);
         normal = n;
@@ -214,8 +215,14 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
   std::vector<Stem::RayOrigin> origins;
   origins.reserve(objects.size());
   std::vector<const Stem::RayOrigin*> tree_origin(scene_.trees.size(), nullptr);
+  std::vector<ShrubView> shrub_views;
+  shrub_views.reserve(objects.size());
   for (Candidate& c : objects) {
-    if (c.index < 0) continue;
+    if (c.index < 0) {
+      shrub_views.push_back(ViewShrub(-c.index - 1, o));
+      c.shrub = &shrub_views.back();
+      continue;
+    }
     origins.push_back(scene_.trees[c.index].stem.PrepareOrigin(o));
     c.origin = tree_origin[c.index] = &origins.back();
   }
