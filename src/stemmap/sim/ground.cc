@@ -19,23 +19,24 @@ Ground::Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_
   inv_table_step_ = 1.0 / table_step_m_;
   table_n_ = static_cast<int>(std::ceil(2.0 * extent_m / table_step_m_)) + 2;
   const size_t n = static_cast<size_t>(table_n_);
-  table_.resize(n * n);
+  bump_m_.resize(n * n);
+  slope_.resize(n * n);
 #pragma omp parallel for schedule(static)
   for (size_t i = 0; i < n; ++i) {
     for (size_t j = 0; j < n; ++j) {
       const double x = table_origin_m_ + j * table_step_m_, y = table_origin_m_ + i * table_step_m_;
-      table_[i * n + j].bump_m = static_cast<float>(BumpFromNoise(x, y));
+      bump_m_[i * n + j] = static_cast<float>(BumpFromNoise(x, y));
     }
   }
   // Node slopes by central differences (one-sided at the border).
-  auto bump = [&](size_t i, size_t j) { return static_cast<double>(table_[i * n + j].bump_m); };
+  auto bump = [&](size_t i, size_t j) { return static_cast<double>(bump_m_[i * n + j]); };
   for (size_t i = 0; i < n; ++i) {
     for (size_t j = 0; j < n; ++j) {
       const size_t j0 = j > 0 ? j - 1 : j, j1 = j + 1 < n ? j + 1 : j;
       const size_t i0 = i > 0 ? i - 1 : i, i1 = i + 1 < n ? i + 1 : i;
-      table_[i * n + j].dx =
+      slope_[i * n + j].dx =
           static_cast<float>((bump(i, j1) - bump(i, j0)) / ((j1 - j0) * table_step_m_));
-      table_[i * n + j].dy =
+      slope_[i * n + j].dy =
           static_cast<float>((bump(i1, j) - bump(i0, j)) / ((i1 - i0) * table_step_m_));
     }
   }
@@ -66,13 +67,14 @@ double Ground::BumpFromNoise(double x, double y) const {
 double Ground::Raw(double x, double y) const { return Height(x, y) + offset_m_; }
 
 Eigen::Vector2d Ground::Gradient(double x, double y) const {
-  const Node* n0;
+  size_t node;
   double wx, wy;
-  if (!Cell(x, y, &n0, &wx, &wy)) {
+  if (!Cell(x, y, &node, &wx, &wy)) {
     const double h = 0.5 * table_step_m_;
     return {(Raw(x + h, y) - Raw(x - h, y)) / (2 * h), (Raw(x, y + h) - Raw(x, y - h)) / (2 * h)};
   }
-  const Node* n1 = n0 + table_n_;
+  const Slope* n0 = &slope_[node];
+  const Slope* n1 = n0 + table_n_;
   const double w00 = (1 - wx) * (1 - wy), w01 = wx * (1 - wy), w10 = (1 - wx) * wy, w11 = wx * wy;
   return plane_gradient_ +
          Eigen::Vector2d(w00 * n0[0].dx + w01 * n0[1].dx + w10 * n1[0].dx + w11 * n1[1].dx,
