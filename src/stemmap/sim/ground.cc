@@ -57,7 +57,8 @@ Ground::Ground(double slope_deg, double downhill_azimuth_rad, double unevenness_
   }
   offset_m_ = Raw(0.0, 0.0);
   // The renderer never marches beyond the table (it stops at the distant-forest wall).
-  lipschitz_ = s + std::max(1.1 * max_bump_slope, 1e-4);
+  bump_lipschitz_ = std::max(1.1 * max_bump_slope, 1e-4);
+  lipschitz_ = s + bump_lipschitz_;
 }
 
 double Ground::BumpFromNoise(double x, double y) const {

@@ -23,6 +23,8 @@ class Ground {
   Eigen::Vector3d Normal(double x, double y) const;
   // Upper bound of |∇g| over the whole field; the renderer's ray march relies on it.
   double LipschitzBound() const { return lipschitz_; }
+  // The same for the bumps alone, without the plane's slope.
+  double BumpLipschitzBound() const { return bump_lipschitz_; }
   double slope_deg() const { return slope_deg_; }
   // The field lies within ±BumpBound() of the plane PlaneHeight().
   double PlaneHeight(double x, double y) const {
@@ -52,7 +54,7 @@ class Ground {
   double unevenness_m_ = 0.0;
   double wavelength_m_ = 1.0;
   double offset_m_ = 0.0;
-  double lipschitz_ = 0.0;
+  double lipschitz_ = 0.0, bump_lipschitz_ = 0.0;
   double slope_deg_ = 0.0;
   ValueNoise noise_;
 };

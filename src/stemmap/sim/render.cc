@@ -253,12 +253,15 @@ double Renderer::IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
   const double lip = g.LipschitzBound();
   const double dxy = std::sqrt(d.x() * d.x() + d.y() * d.y());  // not hypot: hot, and no overflow
   if (d.z() > lip * dxy) return kInf;                           // climbs faster than any slope
-  const double inv_rate = 1.0 / (std::abs(d.z()) + lip * dxy);
   // Skip to where the ray enters the slab of ±bump around the ground plane.
   double t = 0.0;
   const Eigen::Vector2d& pg = g.plane_gradient();
   const double above = o.z() - g.PlaneHeight(o.x(), o.y()) - g.BumpBound();
   const double closing = -(d.z() - pg.dot(d.head<2>()));  // rate the gap to the slab top shrinks
+  // The height above the ground falls at `closing` per metre of ray from the plane alone, and at
+  // most the bumps' slope more: the safe step, exact for the plane (tighter than one bound for
+  // both where the ray runs along or down the slope).
+  const double inv_rate = 1.0 / (std::max(closing, 0.0) + g.BumpLipschitzBound() * dxy);
   if (above > 0) {
     if (closing <= 0) return kInf;
     t = above / closing;
