@@ -73,7 +73,7 @@ Stem::Stem(const StemParams& p) : p_(p), exp_neg_(&ExpNegTable::Get()), noise_(p
   envelope_bound_m_ = p.taper_m_per_m >= 0 ? MeanRadius(-kBelowGroundM) : -1.0;
 }
 
-double Stem::MeanRadius(double s, double* slope) const {
+inline double Stem::MeanRadius(double s, double* slope) const {
   double r = p_.radius_bh_m + p_.taper_m_per_m * (p_.s_bh_m - s);
   double dr_ds = -p_.taper_m_per_m;
   // The flare has vanished (< 1e-7 of the radius) well above the ground.
