@@ -13,13 +13,15 @@ seconds() {  # GNU time's wall clock (h:mm:ss or m:ss.ss) in seconds
     awk -F: '{ if (NF==3) print $1*3600+$2*60+$3; else print $1*60+$2 }'
 }
 
-# prepare_plot KIND SEED: renders DATA/KIND-SEED once, writes its calibration file and sets
-# `plot`, `arm` and `measured` (the --camera-height flag, or nothing). Fails if rendering fails.
+# prepare_plot KIND SEED: renders DATA/KIND-SEED once (timed: DATA/KIND-SEED.simulate.log ends
+# with GNU time's report), writes its calibration file and sets `plot`, `arm` and `measured` (the
+# --camera-height flag, or nothing). Fails if rendering fails.
 prepare_plot() {
   plot="$data/$1-$2"
   if [ ! -f "$plot/video.mp4" ]; then
-    "$bin" --log-level warn simulate --seed "$2" --kind "$1" --out "$plot" --stills 0 \
-      ${SIM_ARGS:-} > /dev/null 2> "$plot.simulate.log" || { echo "simulate failed: $plot" >&2; return 1; }
+    /usr/bin/time -v "$bin" --log-level warn simulate --seed "$2" --kind "$1" --out "$plot" \
+      --stills 0 ${SIM_ARGS:-} > /dev/null 2> "$plot.simulate.log" ||
+      { echo "simulate failed: $plot" >&2; return 1; }
   fi
   python3 "$here/truth_calibration.py" "$plot/truth.json" "$plot/calibration.yaml"
   arm=$(python3 -c "import json;print(json.load(open('$plot/truth.json'))['arm_radius_m'])")
