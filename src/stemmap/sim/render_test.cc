@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+
 #include "stemmap/sim/rig.h"
 #include "stemmap/sim/sensor.h"
 
@@ -62,6 +64,17 @@ TEST(Renderer, StemAppearsWhereTheCameraModelPutsIt) {
   const cv::Mat bgr = sensor.Capture(a, 0.15, 1.0, 0, 1.0 / 30);
   EXPECT_EQ(bgr.type(), CV_8UC3);
   EXPECT_GT(cv::mean(bgr)[1], 10.0);  // not black
+
+  // A frame of another size than the camera's is refused, not read past its end.
+  RenderBuffers small;
+  small.radiance = cv::Mat(90, 160, CV_32FC3, cv::Scalar::all(0.1));
+  small.depth_m = cv::Mat(90, 160, CV_32F, cv::Scalar(5.0));
+  try {
+    sensor.Capture(small, 0.15, 1.0, 1, 1.0 / 30);
+    ADD_FAILURE() << "a 160x90 frame for a 320x180 camera was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "sensor: frame size differs from the camera's");
+  }
 }
 
 }  // namespace
