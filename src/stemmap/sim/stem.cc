@@ -159,13 +159,9 @@ double Stem::EllipseFactor(double c, double sn, double* slope) const {
 }
 
 double Stem::SurfaceRadius(double phi, double s) const {
-  return SurfaceRadius(phi, s, MeanRadius(s));
-}
-
-double Stem::SurfaceRadius(double phi, double s, double mean_radius) const {
   double u = phi / kTwoPi;
   u -= std::floor(u);
-  return EllipseFactor(std::cos(phi), std::sin(phi)) * mean_radius + Relief(u, s);
+  return EllipseFactor(std::cos(phi), std::sin(phi)) * MeanRadius(s) + Relief(u, s);
 }
 
 double Stem::Field(const Eigen::Vector3d& q, FieldParts* parts) const {
@@ -180,7 +176,7 @@ double Stem::Field(const Eigen::Vector3d& q, FieldParts* parts) const {
   const double mean_radius = MeanRadius(q.z());
   const double relief = Relief(u, q.z());
   const double surface = e * mean_radius + relief;
-  if (parts) *parts = {true, rho, phi, u, mean_radius, surface, relief};
+  if (parts) *parts = {true, rho, u, mean_radius, relief};
   return rho - surface;
 }
 
@@ -293,13 +289,9 @@ StemHit Stem::Shade(const SurfacePoint& point) const {
   if (!parts.valid) {
     parts.valid = true;
     parts.rho = std::sqrt(q.x() * q.x() + q.y() * q.y());
-    parts.phi = FastAtan2(q.y(), q.x());
     parts.u = TurnFraction(q.x(), q.y());
     parts.mean_radius = MeanRadius(q.z());
     parts.relief = Relief(parts.u, q.z());
-    const double rho = std::max(parts.rho, 1e-9);
-    parts.surface_radius =
-        EllipseFactor(q.x() / rho, q.y() / rho) * parts.mean_radius + parts.relief;
   }
   const double rho = std::max(parts.rho, 1e-9);
   const double u = parts.u;

@@ -56,7 +56,7 @@ class Stem {
   // What the field computes at a point, kept so that a hit's normal and albedo reuse it.
   struct FieldParts {
     bool valid = false;  // false where the field short-cuts (beyond the ends, on the axis)
-    double rho, phi, u, mean_radius, surface_radius, relief;
+    double rho, u, mean_radius, relief;
   };
   // Where a ray meets the surface, before any shading: enough to tell which object is nearest.
   struct SurfacePoint {
@@ -120,7 +120,6 @@ class Stem {
     return k < plates_.size() ? plates_[k] : HashPlates(ridge);
   }
   double Field(const Eigen::Vector3d& p_stem, FieldParts* parts = nullptr) const;  // < 0 inside
-  double SurfaceRadius(double phi, double s, double mean_radius) const;
   Eigen::Vector3f Albedo(double u, double s, double relief) const;  // relief = Relief(u, s)
   static double TurnFraction(double x, double y);
 
