@@ -6,15 +6,35 @@
 #include <CLI/CLI.hpp>
 #include <cstdio>
 #include <exception>
+#include <opencv2/core.hpp>
+#include <opencv2/core/utils/logger.hpp>
+#include <string>
 
 #include "stemmap/cli/commands.h"
 #include "stemmap/core/error.h"
+#include "stemmap/core/run_folder.h"
 
 #ifndef STEMMAP_VERSION
 #define STEMMAP_VERSION "unknown"
 #endif
 
+namespace {
+
+// Messages leave on one line, whatever a library put in them.
+std::string OneLine(std::string text) {
+  for (char& c : text) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  while (!text.empty() && text.back() == ' ') text.pop_back();
+  return text;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  stemmap::InstallInterruptHandler();
+  // OpenCV's warnings would interleave with ours; its errors arrive as exceptions.
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
   CLI::App app{"stemmap: forest-plot tree list (stem positions and DBH) from one circular video"};
   app.set_version_flag("--version", std::string("stemmap ") + STEMMAP_VERSION);
   app.require_subcommand(1);
@@ -31,16 +51,19 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
     // Wrong flags are bad input like any other: one line, exit code 2.
-    fmt::print(stderr, "stemmap: error: {} (see --help)\n", e.what());
+    fmt::print(stderr, "stemmap: error: {} (see --help)\n", OneLine(e.what()));
     return 2;
   } catch (const stemmap::InputError& e) {
-    fmt::print(stderr, "stemmap: error: {}\n", e.what());
+    fmt::print(stderr, "stemmap: error: {}\n", OneLine(e.what()));
     return 2;
   } catch (const stemmap::ProcessingError& e) {
-    fmt::print(stderr, "stemmap: failed: {}\n", e.what());
+    fmt::print(stderr, "stemmap: failed: {}\n", OneLine(e.what()));
     return 3;
+  } catch (const cv::Exception& e) {
+    fmt::print(stderr, "stemmap: internal error: OpenCV {}: {}\n", e.func, OneLine(e.err));
+    return 4;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "stemmap: internal error: {}\n", e.what());
+    fmt::print(stderr, "stemmap: internal error: {}\n", OneLine(e.what()));
     return 4;
   }
   return 0;

@@ -11,6 +11,7 @@
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/core/pose.h"
+#include "stemmap/core/run_folder.h"
 #include "stemmap/pipeline/refine.h"
 #include "stemmap/report/report.h"
 #include "stemmap/track/track_io.h"
@@ -89,8 +90,12 @@ void WriteProcessReport(const ProcessOptions& o, const track::TrackResult& tr,
 }  // namespace
 
 ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& video,
-                         const std::filesystem::path& out_dir) {
+                         const std::filesystem::path& out) {
   o.Check();
+  // Everything is written to a staging folder and moved into `out` at the end; an unusable
+  // `out` is refused here, before the long work.
+  StagedRunFolder folder(out, o.from_track);
+  const std::filesystem::path& out_dir = folder.staging();
   const auto t0 = std::chrono::steady_clock::now();
   auto lap = [last = t0]() mutable {
     const auto now = std::chrono::steady_clock::now();
@@ -110,7 +115,13 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   topt.frontend.keep_keyframe_images = true;
   track::TrackResult tr;
   if (o.from_track.empty()) {
-    tr = track::RunTrack(topt, video, out_dir);
+    tr = track::TrackInto(topt, video, out_dir);
+    // What a stop from here on leaves is a finished track, and how to go on from it.
+    folder.KeepIfUnfinished();
+    SetInterruptMessage(fmt::format(
+        "interrupted after tracking: {} is unchanged; the finished track is in {} (go on with "
+        "`stemmap process {} --from-track {} --out {}`)",
+        out.string(), out_dir.string(), video.string(), out_dir.string(), out.string()));
   } else {
     tr = track::LoadTrack(o.from_track, video, /*full_gray=*/true);
     std::filesystem::create_directories(out_dir);
@@ -201,6 +212,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
        {"bark_depth", o.bark_depth},
        {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});
   WriteJsonAtomic(out_dir / "summary.json", s);
+  folder.Commit({{"command", "process"}, {"video", std::filesystem::absolute(video).string()}});
   return r;
 }
 

@@ -9,6 +9,7 @@
 #include "stemmap/calib/calibrate.h"
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
+#include "stemmap/core/run_folder.h"
 #include "stemmap/track/frame_poses.h"
 #include "stemmap/track/plot_frame.h"
 #include "stemmap/track/rotation.h"
@@ -101,6 +102,15 @@ std::string TrackResult::BriefReport() const {
 
 TrackResult RunTrack(const TrackOptions& o, const std::filesystem::path& video,
                      const std::filesystem::path& out_dir) {
+  o.Check();
+  StagedRunFolder folder(out_dir);
+  TrackResult r = TrackInto(o, video, folder.staging());
+  folder.Commit({{"command", "track"}, {"video", std::filesystem::absolute(video).string()}});
+  return r;
+}
+
+TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
+                      const std::filesystem::path& out_dir) {
   o.Check();
   Stopwatch clock;
   nlohmann::json timing;

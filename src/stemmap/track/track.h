@@ -59,10 +59,16 @@ struct TrackResult {
 
 // `stemmap track`: camera trajectory with metric scale from the arm radius. Writes
 // OUT/trajectory.tum, OUT/keyframes.tum, OUT/sparse.ply, OUT/summary.json ({"track": ...}) and
-// OUT/track_options.json. Throws InputError for unreadable, too dark or too short videos and
-// ProcessingError when tracking cannot be recovered.
+// OUT/track_options.json, staged and moved into OUT whole at the end (StagedRunFolder). Throws
+// InputError for unusable output folders (before any work) and unreadable, too dark or too short
+// videos, and ProcessingError when tracking cannot be recovered.
 TrackResult RunTrack(const TrackOptions& options, const std::filesystem::path& video,
                      const std::filesystem::path& out_dir);
+
+// The same work, written straight into `dir` (summary.json last, so a folder that has it holds a
+// finished track): for a larger run that stages its own folder.
+TrackResult TrackInto(const TrackOptions& options, const std::filesystem::path& video,
+                      const std::filesystem::path& dir);
 
 nlohmann::json ToJson(const TrackOptions& options);
 

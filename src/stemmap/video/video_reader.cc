@@ -21,6 +21,7 @@ extern "C" {
 #include <thread>
 
 #include "stemmap/core/error.h"
+#include "stemmap/video/ffmpeg_log.h"
 
 namespace stemmap {
 
@@ -48,17 +49,37 @@ int DisplayRotationDeg(const AVStream* stream) {
 
 // The decoded frame converted and scaled to w x h in `format` (an OpenCV image of `cv_type`),
 // through a conversion context cached in *ctx.
+//
+// Two faults of swscale (FFmpeg 5.1) are kept away here. Its unscaled YUV-to-RGB converter works
+// in blocks of 16 pixels: for other widths it leaves a row's last pixels unwritten (854 px: 6 of
+// them) or writes past the row's end (540 px: 12 bytes), so that case takes the exact path
+// (SWS_ACCURATE_RND), which the benchmark's sizes (multiples of 16) never need. And its vector
+// stores may reach a few bytes past a row: into the next row, written afterwards, or, after the
+// last row, past the image; the image is therefore a view of a buffer with spare rows below it
+// (still one continuous block).
 cv::Mat Convert(SwsContext** ctx, const AVFrame* frame, int w, int h, AVPixelFormat format,
                 int cv_type) {
+  const bool unscaled_rgb = w == frame->width && h == frame->height && format != AV_PIX_FMT_GRAY8;
+  const int flags = SWS_AREA | (unscaled_rgb && w % 16 != 0 ? SWS_ACCURATE_RND : 0);
   *ctx = sws_getCachedContext(*ctx, frame->width, frame->height,
-                              static_cast<AVPixelFormat>(frame->format), w, h, format, SWS_AREA,
+                              static_cast<AVPixelFormat>(frame->format), w, h, format, flags,
                               nullptr, nullptr, nullptr);
-  if (!*ctx) throw ProcessingError("cannot convert decoded frames");
-  cv::Mat img(h, w, cv_type);
-  uint8_t* dst[1] = {img.data};
-  const int dst_stride[1] = {static_cast<int>(img.step[0])};
-  sws_scale(*ctx, frame->data, frame->linesize, 0, frame->height, dst, dst_stride);
-  return img;
+  if (!*ctx) {
+    throw ProcessingError(fmt::format("cannot convert decoded {}x{} frames of pixel format {}",
+                                      frame->width, frame->height, frame->format));
+  }
+  constexpr int kSpareBytes = 256;  // more than any store of swscale's reaches past a row
+  const int row_bytes = w * CV_ELEM_SIZE(cv_type);
+  const int spare_rows = (kSpareBytes + row_bytes - 1) / row_bytes;
+  cv::Mat buffer(h + spare_rows, w, cv_type);
+  uint8_t* dst[4] = {buffer.data, nullptr, nullptr, nullptr};
+  const int dst_stride[4] = {static_cast<int>(buffer.step[0]), 0, 0, 0};
+  const int rows = sws_scale(*ctx, frame->data, frame->linesize, 0, frame->height, dst, dst_stride);
+  if (rows != h) {
+    throw ProcessingError(fmt::format("converting a {}x{} frame gave {} of {} rows", frame->width,
+                                      frame->height, rows, h));
+  }
+  return buffer.rowRange(0, h);
 }
 
 // The image turned clockwise by `rotation_deg` (0, 90, 180 or 270).
@@ -133,7 +154,7 @@ VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options
     : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   // Problems surface as exceptions; FFmpeg's own chatter would bury the progress bar.
-  av_log_set_level(AV_LOG_ERROR);
+  RouteFfmpegLog();
   m.path = path;
   m.options = options;
   if (!fs::exists(path)) throw InputError(fmt::format("video {} does not exist", path.string()));

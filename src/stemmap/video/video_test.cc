@@ -1,9 +1,12 @@
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -255,6 +258,129 @@ TEST(Video, TruncatedFilesAreRefusedOrReadUpToTheCut) {
   while (reader.Next()) ++n;
   EXPECT_GT(n, 5);
   EXPECT_LT(n, 30);
+}
+
+// A test-pattern clip of `frames` frames made by FFmpeg's tool at w x h (any size, odd too),
+// encoded with `codec_args`, and the BGR frames FFmpeg itself decodes from it.
+struct PatternClip {
+  fs::path path;
+  std::vector<cv::Mat> shown;  // FFmpeg's decoding, BGR, display orientation
+};
+
+PatternClip MakePatternClip(const std::string& name, int w, int h, int frames,
+                            const std::string& codec_args) {
+  PatternClip clip;
+  clip.path = TestDir() / name;
+  const std::string make = fmt::format(
+      "ffmpeg -hide_banner -loglevel error -y -f lavfi -i testsrc2=size=320x180:rate=10 -frames:v "
+      "{} -vf scale={}:{} {} '{}'",
+      frames, w, h, codec_args, clip.path.string());
+  EXPECT_EQ(std::system(make.c_str()), 0) << make;
+  const fs::path raw = TestDir() / (name + ".bgr");
+  RunFfmpeg(clip.path, "-f rawvideo -pix_fmt bgr24", raw);
+  const std::string bytes = ReadFileToString(raw);
+  const size_t frame_bytes = static_cast<size_t>(w) * h * 3;
+  EXPECT_EQ(bytes.size(), frames * frame_bytes) << name;
+  for (size_t at = 0; at + frame_bytes <= bytes.size(); at += frame_bytes) {
+    clip.shown.push_back(cv::Mat(h, w, CV_8UC3, const_cast<char*>(bytes.data() + at)).clone());
+  }
+  return clip;
+}
+
+// Each decoded frame matches FFmpeg's own decoding: at full size, as luma, and scaled down.
+void ExpectDecodedAsShown(const PatternClip& clip, int max_long_side_px) {
+  SCOPED_TRACE(clip.path.filename().string());
+  ASSERT_FALSE(clip.shown.empty());
+  const cv::Size full = clip.shown[0].size();
+  for (const bool full_size : {true, false}) {
+    VideoReaderOptions ro;
+    ro.full_gray = true;
+    ro.max_long_side_px = full_size ? 0 : max_long_side_px;
+    VideoReader reader(clip.path, ro);
+    EXPECT_EQ(reader.info().full_width, full.width);
+    EXPECT_EQ(reader.info().full_height, full.height);
+    size_t n = 0;
+    while (auto f = reader.Next()) {
+      ASSERT_LT(n, clip.shown.size());
+      ASSERT_TRUE(f->bgr.isContinuous());
+      ASSERT_EQ(f->gray_full.size(), full);
+      cv::Mat expected_gray;
+      cv::cvtColor(clip.shown[n], expected_gray, cv::COLOR_BGR2GRAY);
+      EXPECT_LT(MeanAbsDiff(f->gray_full, expected_gray), 2.0) << "frame " << n;
+      cv::Mat expected = clip.shown[n];
+      if (!full_size) {
+        EXPECT_EQ(std::max(f->bgr.cols, f->bgr.rows),
+                  std::min(max_long_side_px, std::max(full.width, full.height)));
+        cv::resize(clip.shown[n], expected, f->bgr.size(), 0, 0, cv::INTER_AREA);
+      }
+      ASSERT_EQ(f->bgr.size(), expected.size());
+      // Scaling by two different filters differs at the pattern's sharp edges.
+      EXPECT_LT(MeanAbsDiff(f->bgr, expected), full_size ? 2.0 : 6.0) << "frame " << n;
+      ++n;
+    }
+    EXPECT_EQ(n, clip.shown.size());
+  }
+}
+
+// Phones and messaging apps store portrait frames, and sizes that are not a multiple of 8 or 16.
+TEST(Video, EveryFrameSizeDecodesAsFfmpegShowsIt) {
+  if (!HaveFfmpegTool()) GTEST_SKIP() << "the ffmpeg tool is not installed";
+  const std::vector<cv::Size> sizes = {{540, 960}, {480, 854},  {854, 480},
+                                       {900, 506}, {1000, 562}, {202, 114}};
+  // 202x114 stays at its size: never scaled up.
+  for (const cv::Size& s : sizes) {
+    const PatternClip clip = MakePatternClip(fmt::format("size_{}x{}.mp4", s.width, s.height),
+                                             s.width, s.height, 4, "-c:v libx264 -pix_fmt yuv420p");
+    ExpectDecodedAsShown(clip, 300);
+  }
+  // 4:2:0 needs even sizes; 4:4:4 takes odd ones.
+  ExpectDecodedAsShown(MakePatternClip("odd.mp4", 161, 91, 4, "-c:v libx264 -pix_fmt yuv444p"),
+                       100);
+}
+
+TEST(Video, TenBitHevcDecodes) {
+  if (!HaveFfmpegTool()) GTEST_SKIP() << "the ffmpeg tool is not installed";
+  const PatternClip clip = MakePatternClip(
+      "hevc10.mov", 480, 270, 4, "-c:v libx265 -x265-params log-level=none -pix_fmt yuv420p10le");
+  EXPECT_EQ(VideoReader(clip.path).info().codec, "hevc");
+  ExpectDecodedAsShown(clip, 240);
+}
+
+// Phones vary the frame interval with the light; each frame keeps its own presentation time.
+TEST(Video, VariableFrameTimesAreKept) {
+  if (!HaveFfmpegTool()) GTEST_SKIP() << "the ffmpeg tool is not installed";
+  const fs::path clip = WriteClip(TestDir() / "cfr.mp4", 10);
+  const fs::path vfr = TestDir() / "vfr.mp4";
+  // Frame n at n/10 s for the first five, then 0.3 s apart.
+  RunFfmpeg(clip,
+            "-vf \"setpts='if(lt(N,5),N/10,0.4+(N-4)*0.3)/TB'\" -fps_mode passthrough "
+            "-c:v libx264 -pix_fmt yuv420p",
+            vfr);
+  VideoReader reader(vfr);
+  std::vector<double> t;
+  while (auto f = reader.Next()) t.push_back(f->t_s);
+  ASSERT_EQ(t.size(), 10u);
+  for (int n = 0; n < 10; ++n) {
+    EXPECT_NEAR(t[n], n < 5 ? n / 10.0 : 0.4 + (n - 4) * 0.3, 1e-3) << "frame " << n;
+  }
+}
+
+TEST(Video, AudioTracksAreIgnored) {
+  if (!HaveFfmpegTool()) GTEST_SKIP() << "the ffmpeg tool is not installed";
+  const fs::path clip = WriteClip(TestDir() / "silent.mp4", 12);
+  const fs::path with_audio = TestDir() / "with_audio.mov";
+  const std::string cmd = fmt::format(
+      "ffmpeg -hide_banner -loglevel error -y -f lavfi -i sine=frequency=440:duration=2 -i '{}' "
+      "-map 0:a -map 1:v -c:v copy -c:a aac -shortest '{}'",
+      clip.string(), with_audio.string());
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  VideoReader reader(with_audio);
+  int n = 0;
+  while (auto f = reader.Next()) {
+    EXPECT_LT(MeanAbsDiff(f->bgr, TestFrame(160, 96, n)), 6.0) << "frame " << n;
+    ++n;
+  }
+  EXPECT_EQ(n, 12);
 }
 
 TEST(Video, WriterRejectsOddSize) {

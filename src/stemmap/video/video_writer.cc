@@ -12,6 +12,7 @@ extern "C" {
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
+#include "stemmap/video/ffmpeg_log.h"
 
 namespace stemmap {
 
@@ -79,7 +80,7 @@ VideoWriter::VideoWriter(const fs::path& path, const VideoWriterOptions& options
   options.Check();
   Impl& m = *impl_;
   // Problems surface as exceptions; FFmpeg's own chatter would bury the progress bar.
-  av_log_set_level(AV_LOG_ERROR);
+  RouteFfmpegLog();
   m.path = path;
   m.options = options;
   if (path.has_parent_path()) fs::create_directories(path.parent_path());
