@@ -31,6 +31,26 @@ void FrontendOptions::Check() const {
 
 namespace {
 
+// The median of `v` (0 when empty); reorders it.
+float Median(std::vector<float>* v) {
+  if (v->empty()) return 0.f;
+  std::nth_element(v->begin(), v->begin() + v->size() / 2, v->end());
+  return (*v)[v->size() / 2];
+}
+
+// Adds to `spans` the stretches where frames are missing (packets the decoder rejected): gaps
+// between decoded frames over 2.5 frame intervals, as (last frame before, first frame after).
+void AddMissingSpans(double fps, const std::vector<double>& frame_t_s,
+                     std::vector<std::pair<double, double>>* spans) {
+  if (!(fps > 0)) return;
+  for (size_t i = 1; i < frame_t_s.size(); ++i) {
+    if (frame_t_s[i] - frame_t_s[i - 1] > 2.5 / fps) {
+      spans->emplace_back(frame_t_s[i - 1], frame_t_s[i]);
+    }
+  }
+  std::sort(spans->begin(), spans->end());
+}
+
 struct Tracker {
   Tracker(const FrontendOptions& options, const PinholeCamera& cam) : o(options), camera(cam) {}
   const FrontendOptions& o;
@@ -140,12 +160,24 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
   };
 
   int last_tracked = -1;
+  int damaged_last = -1;
   double last_t = 0.0;
   while (std::optional<DecodedFrame> f = reader.Next()) {
     const int fi = static_cast<int>(r.frame_t_s.size());
     r.frame_t_s.push_back(f->t_s);
     progress.Update(fi + 1);
     if (fi % stride != 0) continue;
+    if (f->damaged) {
+      // A made-up picture would pull points along with it; the frames either side are bridged.
+      ++r.damaged_frames;
+      if (!r.damaged_spans_s.empty() && fi - damaged_last <= 2 * stride) {
+        r.damaged_spans_s.back().second = f->t_s;
+      } else {
+        r.damaged_spans_s.emplace_back(f->t_s, f->t_s);
+      }
+      damaged_last = fi;
+      continue;
+    }
     if (!f->converted) {
       throw ProcessingError(fmt::format("frame {} was not converted for tracking", fi));
     }
@@ -183,6 +215,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
       cv::calcOpticalFlowPyrLK(pyr, prev_pyr, next, back, st_back, err, win, o.lk_levels, term,
                                cv::OPTFLOW_USE_INITIAL_FLOW);
     }
+    std::vector<float> dx, dy;
     size_t k = 0;
     for (size_t i = 0; i < tr.pts.size(); ++i) {
       const cv::Point2f& p = next[i];
@@ -191,6 +224,8 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
           cv::norm(back[i] - tr.pts[i]) > o.max_forward_backward_px) {
         continue;
       }
+      dx.push_back(p.x - tr.pts[i].x);
+      dy.push_back(p.y - tr.pts[i].y);
       tr.pts[k] = p;
       tr.ids[k] = tr.ids[i];
       tr.at_kf[k] = tr.at_kf[i];
@@ -199,6 +234,8 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     tr.pts.resize(k);
     tr.ids.resize(k);
     tr.at_kf.resize(k);
+    r.sideways_motion_px += std::abs(Median(&dx));
+    r.vertical_motion_px += std::abs(Median(&dy));
     tracked_sum += k;
     std::swap(prev_pyr, pyr);
 
@@ -226,6 +263,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     add_keyframe(last_tracked, last_t);
   }
   r.corrupt_packets = reader.corrupt_packets();
+  AddMissingSpans(r.info.fps, r.frame_t_s, &r.damaged_spans_s);
   r.tracked_frames = static_cast<int>(tracked_frames);
   r.mean_tracked_points = tracked_frames > 1 ? tracked_sum / (tracked_frames - 1) : 0.0;
   std::vector<int> kept(tr.tracks.size(), -1);

@@ -79,6 +79,15 @@ struct FrontendResult {
   std::vector<FrameObservations> between;  // tracked frames that are not keyframes, in order
   double mean_tracked_points = 0.0;
   int reseeds_for_loss = 0;  // times the tracker lost most points and started over
+  // How the picture moved: the median shift of the followed points between tracked frames,
+  // summed over the video (working px). A turning arm moves it sideways; a still camera hardly at
+  // all; a picture turned 90° moves it up or down.
+  double sideways_motion_px = 0.0;
+  double vertical_motion_px = 0.0;
+  // Frames the decoder could only partly reconstruct (damaged data): not tracked; the times they
+  // span, merged into intervals [start, end] (s), with the gaps where frames are missing.
+  int damaged_frames = 0;
+  std::vector<std::pair<double, double>> damaged_spans_s;
 };
 
 // Reads the remaining frames of `reader` (opened at the working resolution) and tracks features.

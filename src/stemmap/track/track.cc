@@ -3,8 +3,10 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <string>
 
 #include "stemmap/calib/calibrate.h"
 #include "stemmap/core/error.h"
@@ -56,6 +58,68 @@ double MeanOdometryLoopErrorDeg(const LoopResult& loop, const std::vector<double
     sum += std::abs(turn[p.late] - turn[p.early] - (sign * 2.0 * M_PI + p.yaw_rad));
   }
   return sum / loop.pairs.size() / kDeg;
+}
+
+// The smallest video that holds a plot's trunks at a measurable width (px, long and short side).
+constexpr int kMinLongSidePx = 320;
+constexpr int kMinShortSidePx = 180;
+
+void CheckFrameSize(const VideoInfo& info) {
+  const int long_side = std::max(info.full_width, info.full_height);
+  const int short_side = std::min(info.full_width, info.full_height);
+  if (long_side < kMinLongSidePx || short_side < kMinShortSidePx) {
+    throw InputError(fmt::format(
+        "the video is {}x{} px, too small to measure trunks in (at least {}x{} is needed; record "
+        "at 1080p)",
+        info.full_width, info.full_height, kMinLongSidePx, kMinShortSidePx));
+  }
+}
+
+// Why the picture's motion cannot be a turn of the arm; empty when it can. A full turn moves the
+// picture sideways by about 360°/HFOV frame widths.
+std::string MotionProblem(const FrontendResult& f, const PinholeCamera& camera) {
+  const double w = f.working_size.width, h = f.working_size.height;
+  const double seconds = f.frame_t_s.back() - f.frame_t_s.front();
+  if (f.sideways_motion_px < 0.25 * w && f.vertical_motion_px < 0.25 * h) {
+    return fmt::format(
+        "the camera does not turn: in {:.0f} s the picture moved {:.0f} px sideways, where one "
+        "turn of the arm moves it some {:.0f} frame widths; push the arm round one full turn "
+        "while recording",
+        seconds, f.sideways_motion_px, 360.0 / camera.HfovDeg());
+  }
+  if (f.vertical_motion_px > 2.0 * f.sideways_motion_px) {
+    return "the picture moves up and down, not sideways: the video is turned 90° (a rotation "
+           "tag lost?); turn it upright first, e.g. `ffmpeg -i IN -vf transpose=1 OUT` "
+           "(transpose=2 turns the other way), or record in landscape";
+  }
+  return {};
+}
+
+// Whether the frames end well before the time the file's header gives (a copy cut short).
+bool EndsEarly(const FrontendResult& f) {
+  const double header_s = f.info.duration_s;
+  return header_s > 0 && f.frame_t_s.back() < header_s - std::max(1.0, 0.05 * header_s);
+}
+
+// What the file itself lacks, to add to a failure's message: the part a cut-short copy lost,
+// and where the decoder met damaged data. Empty for a whole, clean file.
+std::string DamageNote(const FrontendResult& f) {
+  std::string note;
+  if (EndsEarly(f)) {
+    note += fmt::format(
+        "; the file is incomplete: frames up to {:.1f} s of the {:.1f} s its header gives could "
+        "be read (a copy cut short?)",
+        f.frame_t_s.back(), f.info.duration_s);
+  }
+  if (f.damaged_frames > 0 || f.corrupt_packets > 0) {
+    note += fmt::format("; the file is damaged: {} frames could not be decoded whole",
+                        f.damaged_frames + f.corrupt_packets);
+    for (size_t i = 0; i < std::min<size_t>(3, f.damaged_spans_s.size()); ++i) {
+      note += fmt::format("{} {:.1f}-{:.1f} s", i == 0 ? ", at" : ",", f.damaged_spans_s[i].first,
+                          f.damaged_spans_s[i].second);
+    }
+  }
+  return note;
 }
 
 PinholeCamera WorkingCamera(const TrackOptions& o, const VideoInfo& info) {
@@ -123,28 +187,40 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
     return index % FrameStride(info.fps, track_fps) == 0;
   };
   VideoReader reader(video, vro);
+  CheckFrameSize(reader.info());
   r.camera = WorkingCamera(o, reader.info());
   spdlog::info("track: {}x{} {:.2f} fps {}, working {}x{}, hfov {:.1f}°", reader.info().width,
                reader.info().height, reader.info().fps, reader.info().codec, r.camera.width,
                r.camera.height, r.camera.HfovDeg());
   FrontendResult f = RunFrontend(o.frontend, reader, r.camera);
   timing["decode_and_klt_s"] = clock.Lap();
-  if (f.keyframes.size() < 3) {
-    throw InputError(fmt::format("the video is too short to track ({} frames, {} keyframes)",
-                                 f.frame_t_s.size(), f.keyframes.size()));
-  }
+  const std::string damage = DamageNote(f);
   if (f.dark_frames > o.max_dark_share * f.tracked_frames) {
-    throw InputError(fmt::format("the video is too dark to track ({} of {} frames dark)",
-                                 f.dark_frames, f.tracked_frames));
+    throw InputError(fmt::format(
+        "the video is too dark to track ({} of {} frames dark): record in daylight, with the "
+        "exposure unlocked or set brighter{}",
+        f.dark_frames, f.tracked_frames, damage));
   }
+  constexpr int kMinFramesToJudgeMotion = 20;
+  if (f.tracked_frames >= kMinFramesToJudgeMotion) {
+    const std::string problem = MotionProblem(f, r.camera);
+    if (!problem.empty()) throw InputError(problem + damage);
+  }
+  if (f.keyframes.size() < 3) {
+    throw InputError(fmt::format(
+        "the video is too short to track ({} frames, {} keyframes; one turn of the arm takes "
+        "40-50 s){}",
+        f.frame_t_s.size(), f.keyframes.size(), damage));
+  }
+  if (!damage.empty()) spdlog::warn("track: {}", damage.substr(2));
   const std::vector<double> inc = ApparentTurnIncrements(f, r.camera, 0.1, 15);
   std::vector<double> turn(inc.size(), 0.0);
   for (size_t k = 1; k < inc.size(); ++k) {
     if (std::isnan(inc[k])) {
       throw ProcessingError(fmt::format(
           "tracking lost at t={:.1f} s: too few points followed between keyframes (covered "
-          "lens, blur or a scene without texture?)",
-          f.keyframes[k].t_s));
+          "lens, blur or a scene without texture?){}",
+          f.keyframes[k].t_s, damage));
     }
     turn[k] = turn[k - 1] + inc[k];
   }
@@ -153,8 +229,8 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
   if (loop.pairs.empty()) {
     throw InputError(fmt::format(
         "the video does not return to its start: no revisit found after {:.0f}° of apparent "
-        "turn (one full turn of the arm is needed)",
-        std::abs(turn.back()) / kDeg));
+        "turn (one full turn of the arm is needed){}",
+        std::abs(turn.back()) / kDeg, damage));
   }
   const double to_true = 2.0 * M_PI / loop.apparent_per_turn_rad;
   std::vector<double> phi(turn.size());
@@ -162,7 +238,9 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
   const double turn_deg = std::abs(phi.back()) / kDeg;
   if (turn_deg < o.min_turn_deg) {
     throw InputError(
-        fmt::format("the video covers {:.0f}° of turn; one full turn is needed", turn_deg));
+        fmt::format("the video covers {:.0f}° of turn; one full turn (360°) is needed: keep "
+                    "recording until the first view comes round again{}",
+                    turn_deg, damage));
   }
   MergeLoopTracks(o.loop, f, loop);
 
@@ -260,6 +338,10 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
                 {"frames", f.frame_t_s.size()},
                 {"rotation_deg", f.info.rotation_deg},
                 {"corrupt_packets", f.corrupt_packets},
+                {"damaged_frames", f.damaged_frames},
+                {"damaged_spans_s", f.damaged_spans_s},
+                {"header_duration_s", f.info.duration_s},
+                {"incomplete", EndsEarly(f)},
                 {"dark_frames", f.dark_frames}};
   s["camera"] = r.camera;
   s["focal_refined"] = bo.refine_focal;

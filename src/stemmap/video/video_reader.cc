@@ -158,13 +158,20 @@ VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options
   m.path = path;
   m.options = options;
   if (!fs::exists(path)) throw InputError(fmt::format("video {} does not exist", path.string()));
+  if (fs::is_directory(path)) {
+    throw InputError(fmt::format("{} is a folder, not a video", path.string()));
+  }
   int ret = avformat_open_input(&m.fmt, path.c_str(), nullptr, nullptr);
   if (ret < 0) {
-    throw InputError(fmt::format("cannot open video {}: {}", path.string(), AvError(ret)));
+    throw InputError(fmt::format(
+        "cannot open video {}: {} (not a video, or damaged or incomplete: a copy cut short loses "
+        "the index that most phones write at the end)",
+        path.string(), AvError(ret)));
   }
   ret = avformat_find_stream_info(m.fmt, nullptr);
   if (ret < 0) {
-    throw InputError(fmt::format("cannot read video {}: {}", path.string(), AvError(ret)));
+    throw InputError(fmt::format("cannot read video {}: {} (damaged or incomplete)", path.string(),
+                                 AvError(ret)));
   }
   const AVCodec* codec = nullptr;
   m.stream_index = av_find_best_stream(m.fmt, AVMEDIA_TYPE_VIDEO, -1, -1, &codec, 0);
@@ -277,6 +284,8 @@ std::optional<DecodedFrame> VideoReader::Impl::Decode() {
       DecodedFrame out;
       out.index = m.decoded++;
       out.t_s = t_s;
+      out.damaged =
+          m.frame->decode_error_flags != 0 || (m.frame->flags & AV_FRAME_FLAG_CORRUPT) != 0;
       out.converted = !m.options.wanted || m.options.wanted(m.info, out.index, t_s);
       if (out.converted) {
         // Frames whose size changes mid-stream are rescaled to the first size.

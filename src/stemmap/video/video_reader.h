@@ -27,6 +27,9 @@ struct DecodedFrame {
   cv::Mat bgr;            // CV_8UC3, rotated upright, scaled to the requested size
   cv::Mat gray_full;      // CV_8U, rotated upright, full resolution (VideoReaderOptions::full_gray)
   bool converted = true;  // false: VideoReaderOptions::wanted skipped it (no images)
+  // The decoder met damaged data in it and filled the gap by guessing (error concealment): its
+  // picture is partly made up.
+  bool damaged = false;
 };
 
 struct VideoReaderOptions {
