@@ -8,6 +8,7 @@ packages=(
   libavcodec-dev libavformat-dev libavutil-dev libswscale-dev ffmpeg
   libnanoflann-dev libcli11-dev libfmt-dev libspdlog-dev nlohmann-json3-dev
   libgdal-dev libgtest-dev libgmock-dev libbenchmark-dev
+  clang libclang-rt-14-dev libomp-dev  # the fuzz targets (scripts/fuzz.sh)
 )
 
 missing=()

@@ -3,10 +3,14 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <charconv>
 #include <cmath>
+#include <map>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <string_view>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -111,42 +115,147 @@ CalibrateSummary RunCalibrate(const CalibrateOptions& o, const std::filesystem::
   return s;
 }
 
+namespace {
+
+// The fields of a calibration file: top-level "key: value" lines, and a matrix's "rows", "cols",
+// "dt" and "data: [ ... ]" (the list may run over several lines) indented below its key.
+struct CalibrationFields {
+  std::map<std::string, std::string> scalars;                        // top-level key -> value
+  std::map<std::string, std::map<std::string, std::string>> nested;  // key -> field -> value
+};
+
+std::string Trim(std::string_view s) {
+  const size_t b = s.find_first_not_of(" \t\r");
+  if (b == std::string_view::npos) return "";
+  const size_t e = s.find_last_not_of(" \t\r");
+  return std::string(s.substr(b, e - b + 1));
+}
+
+CalibrationFields ParseCalibrationText(const std::string& text, const std::string& shown) {
+  CalibrationFields f;
+  std::istringstream in(text);
+  std::string line, current, *open_list = nullptr;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (open_list) {  // inside a "data: [" list until its "]"
+      *open_list += " " + Trim(line);
+      if (line.find(']') != std::string::npos) open_list = nullptr;
+      continue;
+    }
+    const std::string t = Trim(line.substr(0, line.find('#')));
+    if (t.empty() || t[0] == '%' || t == "---") continue;
+    const size_t colon = t.find(':');
+    if (colon == std::string::npos || colon == 0) {
+      throw InputError(fmt::format("calibration {}:{}: expected \"key: value\"", shown, line_no));
+    }
+    const std::string key = Trim(t.substr(0, colon)), value = Trim(t.substr(colon + 1));
+    const bool top_level = line[0] != ' ' && line[0] != '\t';
+    if (top_level) current = key;
+    if (!top_level && current.empty()) {
+      throw InputError(
+          fmt::format("calibration {}:{}: indented line outside a field", shown, line_no));
+    }
+    std::string& slot = top_level ? f.scalars[key] : f.nested[current][key];
+    slot = value;
+    if (!value.empty() && value[0] == '[' && value.find(']') == std::string::npos) {
+      open_list = &slot;
+    }
+  }
+  if (open_list) throw InputError(fmt::format("calibration {}: a list is not closed", shown));
+  return f;
+}
+
+double ParseNumber(const std::string& s, const std::string& what) {
+  double v = 0.0;
+  const char* end = s.data() + s.size();
+  const auto [ptr, ec] = std::from_chars(s.data(), end, v);
+  if (ec != std::errc() || ptr != end || !std::isfinite(v)) {
+    throw InputError(fmt::format("{}: '{}' is not a number", what, s));
+  }
+  return v;
+}
+
+int ParseInt(const std::string& s, const std::string& what) {
+  const double v = ParseNumber(s, what);
+  if (v != std::floor(v) || std::abs(v) > 1e6) {
+    throw InputError(fmt::format("{}: '{}' is not a whole number", what, s));
+  }
+  return static_cast<int>(v);
+}
+
+// A matrix field as a list of rows x cols numbers (empty when the field is absent).
+std::vector<double> ReadMatrix(const CalibrationFields& f, const std::string& key,
+                               const std::string& shown) {
+  const auto it = f.nested.find(key);
+  const std::string what = fmt::format("calibration {}: {}", shown, key);
+  if (it == f.nested.end()) {
+    const auto scalar = f.scalars.find(key);
+    if (scalar != f.scalars.end() && !scalar->second.empty() &&
+        scalar->second != "!!opencv-matrix") {
+      throw InputError(fmt::format("{} must be a matrix (rows, cols, data)", what));
+    }
+    return {};
+  }
+  const auto field = [&](const char* name) {
+    const auto v = it->second.find(name);
+    if (v == it->second.end()) throw InputError(fmt::format("{} has no {}", what, name));
+    return v->second;
+  };
+  const int rows = ParseInt(field("rows"), what), cols = ParseInt(field("cols"), what);
+  std::string data = field("data");
+  if (data.size() < 2 || data.front() != '[' || data.back() != ']') {
+    throw InputError(fmt::format("{}: data must be a list [ ... ]", what));
+  }
+  std::vector<double> values;
+  std::istringstream items(data.substr(1, data.size() - 2));
+  for (std::string item; std::getline(items, item, ',');) {
+    if (!Trim(item).empty()) values.push_back(ParseNumber(Trim(item), what));
+  }
+  if (rows < 1 || cols < 1 || static_cast<size_t>(rows) * cols != values.size()) {
+    throw InputError(
+        fmt::format("{}: {}x{} does not match its {} numbers", what, rows, cols, values.size()));
+  }
+  return values;
+}
+
+}  // namespace
+
+// Read with a parser of our own: OpenCV's (4.6) loops forever or throws the standard library's
+// errors on some damaged files (a fuzzer's findings), and the files are a small fixed layout,
+// the one OpenCV writes and ROS's camera_info shares.
 PinholeCamera ReadCalibration(const std::filesystem::path& path, int width, int height) {
-  cv::FileStorage fs;
-  try {
-    fs.open(path.string(), cv::FileStorage::READ);
-  } catch (const cv::Exception& e) {
-    throw InputError(fmt::format("cannot read calibration {}: {}", path.string(), e.msg));
+  const std::string text = ReadFileToString(path);
+  const std::string shown = path.string();
+  constexpr size_t kMaxCalibrationBytes = 1 << 20;
+  if (text.size() > kMaxCalibrationBytes || text.find('\0') != std::string::npos) {
+    throw InputError(fmt::format("calibration {} is not a YAML text file", shown));
   }
-  if (!fs.isOpened()) throw InputError(fmt::format("cannot open calibration {}", path.string()));
-  cv::Mat k, d;
-  int cw = 0, ch = 0;
-  fs["camera_matrix"] >> k;
-  fs["distortion_coefficients"] >> d;
-  fs["image_width"] >> cw;
-  fs["image_height"] >> ch;
-  if (k.rows != 3 || k.cols != 3 || cw <= 0 || ch <= 0) {
+  const CalibrationFields f = ParseCalibrationText(text, shown);
+  const auto size = [&](const char* key) {
+    const auto it = f.scalars.find(key);
+    return it == f.scalars.end() ? 0 : ParseInt(it->second, "calibration " + shown + ": " + key);
+  };
+  const int cw = size("image_width"), ch = size("image_height");
+  const std::vector<double> k = ReadMatrix(f, "camera_matrix", shown);
+  const std::vector<double> d = ReadMatrix(f, "distortion_coefficients", shown);
+  if (k.size() != 9 || cw <= 0 || ch <= 0) {
     throw InputError(fmt::format(
-        "calibration {} needs camera_matrix (3x3), image_width and image_height", path.string()));
+        "calibration {} needs camera_matrix (3x3), image_width and image_height", shown));
   }
-  k.convertTo(k, CV_64F);
   PinholeCamera c;
   c.width = cw;
   c.height = ch;
-  c.fx = k.at<double>(0, 0);
-  c.fy = k.at<double>(1, 1);
-  c.cx = k.at<double>(0, 2);
-  c.cy = k.at<double>(1, 2);
-  if (!d.empty()) {
-    d.convertTo(d, CV_64F);
-    d = d.reshape(1, static_cast<int>(d.total()));
-    c.k1 = d.at<double>(0);
-    if (d.total() > 1) c.k2 = d.at<double>(1);
-  }
+  c.fx = k[0];
+  c.fy = k[4];
+  c.cx = k[2];
+  c.cy = k[5];
+  if (!d.empty()) c.k1 = d[0];
+  if (d.size() > 1) c.k2 = d[1];
   c.Check();
   if (std::abs(static_cast<double>(cw) / ch - static_cast<double>(width) / height) > 0.01) {
     throw InputError(fmt::format("calibration {} is for {}x{}, the video is {}x{} (another shape)",
-                                 path.string(), cw, ch, width, height));
+                                 shown, cw, ch, width, height));
   }
   return c.Scaled(static_cast<double>(width) / cw);
 }

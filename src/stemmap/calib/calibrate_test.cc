@@ -5,8 +5,11 @@
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
 
 #include "stemmap/core/error.h"
+#include "stemmap/core/io.h"
 #include "stemmap/core/rng.h"
 #include "stemmap/video/video_writer.h"
 
@@ -96,6 +99,50 @@ TEST(Calibrate, NoBoardIsAnError) {
   CalibrateOptions o;
   EXPECT_THROW(RunCalibrate(o, dir / "empty.mp4", dir / "c.yaml"), InputError);
   EXPECT_FALSE(fs::exists(dir / "c.yaml"));
+  fs::remove_all(dir);
+}
+
+// Damaged calibration files are refused with our error, never an OpenCV exception or a huge
+// allocation (the first case is a fuzzer's finding: "rows:&3" read as an enormous size).
+TEST(Calibrate, DamagedCalibrationFilesAreInputErrors) {
+  const fs::path dir = fs::temp_directory_path() / ("stemmap_calib1_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string head = "%YAML:1.0\n---\nimage_width: 1920\nimage_height: 1080\n";
+  const std::string matrix =
+      "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+      "   data: [ 1500., 0., 959.5, 0., 1500., 539.5, 0., 0., 1. ]\n";
+  std::vector<std::string> damaged = {
+      head +
+          "camera_matrix: !!opencv-matrix\n   rows:&3\n   cols: 3\n   dt: d\n"
+          "   data: [ 1500., 0., 959.5, 0.,(1500., 539.5, 0., 0., 1. ]\n",
+      head +
+          "camera_matrix: !!opencv-matrix\n   rows: 300000\n   cols: 300000\n   dt: d\n"
+          "   data: [ 1. ]\n",
+      head + "camera_matrix: a string\n",
+      head + matrix + "distortion_coefficients: [ 1, 2\n",
+      "%YAML:1.0\n---\n" + matrix,
+      head +
+          "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+          "   data: [ -1500., 0., 959.5, 0., 1500., 539.5, 0., 0., 1. ]\n",
+      "\xff\xfe binary",
+      // A fuzzer's finding: OpenCV's parser threw std::length_error on this damaged key.
+      head + matrix +
+          "distort/ocients: !!opencv-matrix\n   rows: 1\n   : 3\n   dt: d\n"
+          "   data: [ 1500., 0., 9591, 0., 0., 0. \x88]\n",
+  };
+  // A fuzzer's finding: OpenCV's parser looped forever on this (NUL bytes in a YAML header).
+  damaged.push_back(
+      std::string("%YAML:1.0 1080\n-------\0\0\0\0ML:1.0 1080\n-----open_coeffL:\n", 46));
+  // And on this (a second "%YAML" directive and "---" separator).
+  damaged.push_back(
+      "%YAML:1.0 1080\n-----------@------%YAML:1.0\n-------\nimage_widthage_heigh-222t");
+  for (size_t i = 0; i < damaged.size(); ++i) {
+    const fs::path path = dir / ("damaged" + std::to_string(i) + ".yaml");
+    WriteFileAtomic(path, damaged[i]);
+    EXPECT_THROW(ReadCalibration(path, 1920, 1080), InputError) << damaged[i];
+  }
+  WriteFileAtomic(dir / "good.yaml", head + matrix);
+  EXPECT_NEAR(ReadCalibration(dir / "good.yaml", 1920, 1080).fx, 1500.0, 1e-9);
   fs::remove_all(dir);
 }
 

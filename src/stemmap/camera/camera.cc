@@ -25,11 +25,16 @@ double PinholeCamera::HfovDeg() const {
 }
 
 void PinholeCamera::Check() const {
-  if (width <= 0 || height <= 0) {
-    throw InputError(fmt::format("camera size {}x{} is not positive", width, height));
+  constexpr int kMaxSidePx = 1 << 15;
+  if (width <= 0 || height <= 0 || width > kMaxSidePx || height > kMaxSidePx) {
+    throw InputError(fmt::format("camera size {}x{} is not positive or beyond {} px", width, height,
+                                 kMaxSidePx));
   }
-  if (!(fx > 0) || !(fy > 0)) {
+  if (!(fx > 0) || !(fy > 0) || !std::isfinite(fx) || !std::isfinite(fy)) {
     throw InputError(fmt::format("camera focal lengths fx={} fy={} must be positive", fx, fy));
+  }
+  if (!std::isfinite(cx) || !std::isfinite(cy)) {
+    throw InputError(fmt::format("camera principal point ({}, {}) is not a number", cx, cy));
   }
   if (std::abs(k1) > 1.0 || std::abs(k2) > 1.0) {
     throw InputError(fmt::format("radial distortion k1={} k2={} is implausible", k1, k2));

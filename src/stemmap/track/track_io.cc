@@ -33,8 +33,7 @@ void WriteTrackOutputs(const std::filesystem::path& out_dir, const TrackResult& 
   WriteJsonAtomic(out_dir / "summary.json", {{"track", r.summary}});
 }
 
-TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::path& video,
-                      bool full_gray) {
+TrackResult ReadTrackFolder(const std::filesystem::path& dir) {
   for (const char* name : {"keyframes.tum", "summary.json"}) {
     if (!std::filesystem::exists(dir / name)) {
       throw InputError(fmt::format("{} has no {}: not a track folder", dir.string(), name));
@@ -49,6 +48,11 @@ TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::p
     throw InputError(
         fmt::format("{}: no track camera in it ({})", (dir / "summary.json").string(), e.what()));
   }
+  try {
+    r.camera.Check();
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: {}", (dir / "summary.json").string(), e.what()));
+  }
   r.keyframes = ReadTumTrajectory(dir / "keyframes.tum");
   if (r.keyframes.size() < 3) {
     throw InputError(fmt::format("{} holds {} keyframes; a track has many more",
@@ -57,6 +61,21 @@ TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::p
   if (std::filesystem::exists(dir / "trajectory.tum")) {
     r.frames = ReadTumTrajectory(dir / "trajectory.tum");
   }
+  for (const auto& [poses, name] :
+       {std::pair{&r.keyframes, "keyframes.tum"}, std::pair{&r.frames, "trajectory.tum"}}) {
+    for (size_t i = 1; i < poses->size(); ++i) {
+      if (!((*poses)[i].t_s > (*poses)[i - 1].t_s)) {
+        throw InputError(
+            fmt::format("{}: times do not increase at pose {}", (dir / name).string(), i + 1));
+      }
+    }
+  }
+  return r;
+}
+
+TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::path& video,
+                      bool full_gray) {
+  TrackResult r = ReadTrackFolder(dir);
   VideoReaderOptions vro;
   vro.max_long_side_px = std::max(r.camera.width, r.camera.height);
   vro.full_gray = full_gray;

@@ -17,6 +17,10 @@ void WritePointsPly(const std::filesystem::path& path, const std::vector<Eigen::
 void WriteTrackOutputs(const std::filesystem::path& out_dir, const TrackResult& result,
                        const nlohmann::json& options);
 
+// The poses, camera and summary of a finished track (its summary.json, keyframes.tum and, where
+// present, trajectory.tum), without images. Throws InputError naming the file at fault.
+TrackResult ReadTrackFolder(const std::filesystem::path& dir);
+
 // A finished track read back, so later stages can run again without tracking: the keyframe poses
 // (DIR/keyframes.tum, plot frame), the working camera and summary (DIR/summary.json), and the
 // keyframes' images decoded from `video` at those times (BGR at the working size, and luma at the

@@ -39,8 +39,9 @@ std::vector<int> GroupRaysByTrunk(const VerticalOptions& o,
       if (c >= 0 && (crossed[r].empty() || crossed[r].back() != c)) crossed[r].push_back(c);
     }
     std::ranges::sort(crossed[r]);
-    const auto [first, last] = std::ranges::unique(crossed[r]);
-    crossed[r].erase(first, last);
+    // (std::unique, not ranges::unique: clang 14, which builds the fuzz targets, cannot compile
+    // the latter's subrange with GCC 12's library.)
+    crossed[r].erase(std::unique(crossed[r].begin(), crossed[r].end()), crossed[r].end());
   }
   // A cell gets one vote from each view with a ray through it: all of a view's rays meet at its
   // camera, so counting rays would make trunks of the cells just in front of every camera. Per
