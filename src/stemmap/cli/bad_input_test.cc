@@ -31,10 +31,13 @@ fs::path Dir() {
   return dir;
 }
 
-Outcome RunStemmap(const std::string& args) {
+// Runs stemmap with `args`; with `signal` (INT, TERM), sends it that signal after `after_s`.
+Outcome RunStemmap(const std::string& args, const std::string& signal = "", double after_s = 0.0) {
   const fs::path err = Dir() / "stderr.txt";
-  const std::string cmd =
-      fmt::format("'{}' {} > /dev/null 2> '{}'", STEMMAP_BINARY, args, err.string());
+  std::string cmd = fmt::format("'{}' {} > /dev/null 2> '{}'", STEMMAP_BINARY, args, err.string());
+  if (!signal.empty()) {
+    cmd += fmt::format(" & pid=$!; sleep {}; kill -{} $pid; wait $pid", after_s, signal);
+  }
   const auto t0 = std::chrono::steady_clock::now();
   const int status = std::system(cmd.c_str());
   Outcome o;
@@ -193,6 +196,28 @@ TEST_F(BadInput, OtherWaysOfTurningStillGiveATrack) {
     SCOPED_TRACE(name);
     const Outcome o = RunStemmap(Track(Derived(name, args)));
     EXPECT_EQ(o.exit_code, 0) << o.stderr_text;
+  }
+}
+
+// Ctrl-C or a scheduler's SIGTERM mid-run: one line saying what was kept, the earlier run in
+// --out untouched, the exit code of the signal.
+TEST_F(BadInput, AStoppedRunSaysWhatWasKeptAndLeavesTheEarlierOne) {
+  if (!have_ffmpeg_) GTEST_SKIP() << "the ffmpeg tool is not installed";
+  const fs::path out = Dir() / "kept";
+  ASSERT_EQ(
+      RunStemmap(fmt::format("track {} --hfov 65 --out {}", Quote(Plot()), Quote(out))).exit_code,
+      0);
+  const std::string before = ReadFileToString(out / "trajectory.tum");
+  for (const auto& [signal, code] : {std::pair{"INT", 130}, std::pair{"TERM", 143}}) {
+    SCOPED_TRACE(signal);
+    // The track of the 9-s clip takes a few seconds; the signal comes while it runs.
+    const Outcome o = RunStemmap(
+        fmt::format("track {} --hfov 65 --out {}", Quote(Plot()), Quote(out)), signal, 0.7);
+    EXPECT_EQ(o.exit_code, code) << o.stderr_text;
+    EXPECT_NE(LastLine(o.stderr_text).find("interrupted: nothing of this run was written"),
+              std::string::npos)
+        << o.stderr_text;
+    EXPECT_EQ(ReadFileToString(out / "trajectory.tum"), before);
   }
 }
 

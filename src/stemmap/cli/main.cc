@@ -1,6 +1,7 @@
 // stemmap: one binary, one subcommand per stage. Each subcommand parses its options and calls a
 // typed Run function from a library; errors reach main() as exceptions and leave as one line.
 #include <fmt/format.h>
+#include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -33,6 +34,8 @@ std::string OneLine(std::string text) {
 
 int main(int argc, char** argv) {
   stemmap::InstallInterruptHandler();
+  // The log goes to stderr with the errors; stdout carries only the results (the tree table).
+  spdlog::set_default_logger(spdlog::stderr_color_mt("stemmap"));
   // OpenCV's warnings would interleave with ours; its errors arrive as exceptions.
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
   CLI::App app{"stemmap: forest-plot tree list (stem positions and DBH) from one circular video"};

@@ -333,6 +333,10 @@ TEST(Video, EveryFrameSizeDecodesAsFfmpegShowsIt) {
                                              s.width, s.height, 4, "-c:v libx264 -pix_fmt yuv420p");
     ExpectDecodedAsShown(clip, 300);
   }
+  // 4K, as phones record it: only its first frame, scaled to the working size.
+  ExpectDecodedAsShown(
+      MakePatternClip("uhd.mp4", 3840, 2160, 1, "-c:v libx264 -preset ultrafast -pix_fmt yuv420p"),
+      960);
   // 4:2:0 needs even sizes; 4:4:4 takes odd ones.
   ExpectDecodedAsShown(MakePatternClip("odd.mp4", 161, 91, 4, "-c:v libx264 -pix_fmt yuv444p"),
                        100);
