@@ -122,7 +122,7 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   const nlohmann::json saved = ReadJsonFile(dir / "out" / "process_options.json");
   EXPECT_EQ(saved["tangent"]["sideways_start_shifts"].get<std::vector<double>>(),
             o.tangent.sideways_start_shifts);
-  EXPECT_EQ(saved["breast_height_m"].get<double>(), o.stems.breast_height_m);
+  EXPECT_EQ(saved["stems"]["breast_height_m"].get<double>(), o.stems.breast_height_m);
   for (const stems::Stem& s : r.stems) EXPECT_GE(100 * s.dbh_m, o.min_dbh_cm);
   // tree_id counts outward from the centre.
   for (size_t i = 1; i < r.stems.size(); ++i) {

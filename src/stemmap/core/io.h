@@ -5,6 +5,8 @@
 #include <string>
 #include <string_view>
 
+#include "stemmap/core/error.h"
+
 namespace stemmap {
 
 // Writes `content` to a temporary file beside `path` and renames it over `path`, so readers never
@@ -19,6 +21,28 @@ std::string ReadFileToString(const std::filesystem::path& path);
 
 // Parses a JSON file; throws InputError naming the file and the parse error.
 nlohmann::json ReadJsonFile(const std::filesystem::path& path);
+
+// Options saved by a run (`*_options.json`) read back; a missing key keeps its default. Throws
+// InputError naming the file and what is wrong in it.
+template <typename Options>
+Options ReadOptionsJson(const std::filesystem::path& path) {
+  const nlohmann::json j = ReadJsonFile(path);
+  if (!j.is_object()) throw InputError(path.string() + ": not a JSON object of options");
+  try {
+    return j.get<Options>();
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(path.string() + ": " + e.what());
+  }
+}
+
+// Options read from a file with the command line's on top: every option the command line set to
+// something other than its default (`from_command_line` against `Options{}`) replaces the file's.
+template <typename Options>
+Options OverlayOptions(const Options& from_file, const Options& from_command_line) {
+  const nlohmann::json changes =
+      nlohmann::json::diff(nlohmann::json(Options{}), nlohmann::json(from_command_line));
+  return nlohmann::json(from_file).patch(changes).template get<Options>();
+}
 
 // A temporary path beside `path` (same folder, so a rename is atomic).
 std::filesystem::path TempPathFor(const std::filesystem::path& path);

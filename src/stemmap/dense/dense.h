@@ -27,6 +27,12 @@ struct DenseOptions {
   double short_baseline_max_depth_m = 12.0;
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(DenseOptions, stereo, pair_turn_deg,
+                                                reference_step_deg, near_pair_turn_deg,
+                                                near_min_depth_m, near_max_depth_m,
+                                                short_baseline_max_depth_m)
 
 class TrunkMaskModel;
 

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -23,6 +24,11 @@ struct StereoOptions {
   int pixel_step = 2;  // keep every n-th pixel of the depth map
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(StereoOptions, scale, num_disparities, block_size,
+                                                uniqueness_ratio, speckle_window, speckle_range,
+                                                min_depth_m, max_depth_m, pixel_step)
 
 // A fused point that remembers where it was seen from: the camera centre gives its ray, so free
 // space between the camera and the point can veto a false stem.

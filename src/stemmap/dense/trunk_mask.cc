@@ -24,16 +24,6 @@ void DnnMaskOptions::Check() const {
   }
 }
 
-void to_json(nlohmann::json& j, const DnnMaskOptions& o) {
-  j = {{"model", o.model.string()},
-       {"input_width", o.input_width},
-       {"input_height", o.input_height},
-       {"trunk_channel", o.trunk_channel},
-       {"threshold", o.threshold},
-       {"mean", o.mean},
-       {"std", o.std}};
-}
-
 namespace {
 
 class DnnMaskModel : public TrunkMaskModel {

@@ -36,7 +36,10 @@ struct DnnMaskOptions {
   std::vector<double> std = {0.229, 0.224, 0.225};
   void Check() const;
 };
-void to_json(nlohmann::json& j, const DnnMaskOptions& o);
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(DnnMaskOptions, model, input_width, input_height,
+                                                trunk_channel, threshold, mean, std)
 
 // Reads the model file; InputError if it is missing or OpenCV cannot read it.
 std::unique_ptr<TrunkMaskModel> LoadDnnMaskModel(const DnnMaskOptions& options);

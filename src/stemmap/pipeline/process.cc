@@ -182,35 +182,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   s["stems"]["ground_cells"] = ground.measured_cells();
   timing["total_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   s["timing_s"] = timing;
-  WriteJsonAtomic(
-      out_dir / "process_options.json",
-      {{"track", track::ToJson(o.track)},
-       {"plot_radius_m", o.plot_radius_m},
-       {"min_dbh_cm", o.min_dbh_cm},
-       {"breast_height_m", o.stems.breast_height_m},
-       {"dbh_method", o.stems.dbh_method},
-       {"require_silhouette", o.require_silhouette},
-       {"keep_bark_confirmed_cloud", o.keep_bark_confirmed_cloud},
-       {"one_sided_max_over_cloud", o.one_sided_max_over_cloud},
-       {"one_sided_min_cloud_radius_m", o.one_sided_min_cloud_radius_m},
-       {"min_core_share", o.min_core_share},
-       {"narrow_fit_share", o.narrow_fit_share},
-       {"min_bark_gap_m", o.min_bark_gap_m},
-       {"max_lean_deg", o.stems.max_lean_deg},
-       {"confirm_lean_deg", o.stems.confirm_lean_deg},
-       {"free_space_veto", o.stems.free_space_veto},
-       {"write_report", o.write_report},
-       {"from_track", o.from_track.string()},
-       {"stereo_pair_turn_deg", o.dense.pair_turn_deg},
-       {"near_stereo_pair_turn_deg", o.dense.near_pair_turn_deg},
-       {"short_baseline_max_depth_m", o.dense.short_baseline_max_depth_m},
-       {"larger_cloud_part_gap_m", o.larger_cloud_part_gap_m},
-       {"larger_cloud_only_max_rms_px", o.larger_cloud_only_max_rms_px},
-       {"wide_fit_scale", o.wide_fit_scale},
-       {"wide_fit_min_bark_ncc", o.wide_fit_min_bark_ncc},
-       {"tangent", o.tangent},
-       {"bark_depth", o.bark_depth},
-       {"mask", o.mask.model.empty() ? nlohmann::json(nullptr) : nlohmann::json(o.mask)}});
+  WriteJsonAtomic(out_dir / "process_options.json", o);
   WriteJsonAtomic(out_dir / "summary.json", s);
   folder.Commit({{"command", "process"}, {"video", std::filesystem::absolute(video).string()}});
   return r;

@@ -72,6 +72,14 @@ struct ProcessOptions {
   bool write_report = true;
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    ProcessOptions, track, dense, mask, stems, tangent, bark_depth, plot_radius_m, min_dbh_cm,
+    require_silhouette, keep_bark_confirmed_cloud, one_sided_max_over_cloud,
+    one_sided_min_cloud_radius_m, min_core_share, narrow_fit_share, min_bark_gap_m,
+    larger_cloud_part_gap_m, larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc,
+    from_track, write_report)
 
 // Plot-level figures foresters use.
 struct PlotFigures {

@@ -1,12 +1,19 @@
 #include "stemmap/pipeline/process.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
 
 #include "stemmap/core/check_message.h"
 #include "stemmap/core/error.h"
+#include "stemmap/core/io.h"
 
 namespace stemmap::pipeline {
 namespace {
+
+namespace fs = std::filesystem;
 
 TEST(PlotSummaryJson, WarnsWhenNoStemWasFound) {
   PlotFigures f;
@@ -63,6 +70,58 @@ TEST(ProcessOptions, TheLargerCloudsSettingsAreChecked) {
             "the short-baseline depth limit must be 0 or beyond the near pairs' range");
   o.dense.short_baseline_max_depth_m = 0.0;  // none
   EXPECT_EQ(CheckMessage(o), "");
+}
+
+fs::path OptionsDir() {
+  const fs::path d =
+      fs::temp_directory_path() / ("stemmap_process_options_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+// Every option, at every level, is saved and read back as it was.
+TEST(ProcessOptions, EveryOptionRoundTripsThroughItsFile) {
+  ProcessOptions o;
+  o.plot_radius_m = 12.5;
+  o.track.frontend.track_fps = 7.5;
+  o.track.bundle.sigma_mount_deg = 0.9;
+  o.track.calibration = "/phones/a.yaml";
+  o.dense.stereo.block_size = 7;
+  o.stems.dbh_method = "slice";
+  o.tangent.wide_start_scales = {1.4};
+  o.bark_depth.min_pairs = 4;
+  o.mask.mean = {0.5, 0.5, 0.5};
+  o.from_track = "/runs/a";
+  WriteJsonAtomic(OptionsDir() / "all.json", o);
+  const ProcessOptions back = ReadOptionsJson<ProcessOptions>(OptionsDir() / "all.json");
+  EXPECT_EQ(nlohmann::json(back), nlohmann::json(o));
+  EXPECT_EQ(back.track.calibration, o.track.calibration);
+  EXPECT_EQ(back.tangent.wide_start_scales, o.tangent.wide_start_scales);
+}
+
+TEST(ProcessOptions, AFileMayGiveSomeOptionsAndFlagsOverrideIt) {
+  WriteFileAtomic(OptionsDir() / "some.json",
+                  R"({"plot_radius_m": 15, "tangent": {"min_rays": 5}, "stems": {}})");
+  const ProcessOptions from_file = ReadOptionsJson<ProcessOptions>(OptionsDir() / "some.json");
+  EXPECT_EQ(from_file.plot_radius_m, 15.0);
+  EXPECT_EQ(from_file.tangent.min_rays, 5);
+  EXPECT_EQ(from_file.min_dbh_cm, ProcessOptions{}.min_dbh_cm) << "a missing key keeps its default";
+  ProcessOptions flags;
+  flags.min_dbh_cm = 10.0;
+  flags.track.arm_radius_m = 0.8;
+  const ProcessOptions merged = OverlayOptions(from_file, flags);
+  EXPECT_EQ(merged.plot_radius_m, 15.0);
+  EXPECT_EQ(merged.tangent.min_rays, 5);
+  EXPECT_EQ(merged.min_dbh_cm, 10.0);
+  EXPECT_EQ(merged.track.arm_radius_m, 0.8);
+}
+
+TEST(ProcessOptions, AnOptionsFileOfTheWrongShapeIsAnInputError) {
+  for (const char* text : {R"([1, 2])", R"({"plot_radius_m": "ten"})",
+                           R"({"tangent": {"wide_start_scales": 2}})", R"({"track": 3})", "{"}) {
+    WriteFileAtomic(OptionsDir() / "bad.json", text);
+    EXPECT_THROW(ReadOptionsJson<ProcessOptions>(OptionsDir() / "bad.json"), InputError) << text;
+  }
 }
 
 }  // namespace

@@ -35,23 +35,6 @@ void BarkDepthOptions::Check() const {
   if (min_pairs < 2) throw InputError("bark depth needs at least 2 pairs");
 }
 
-void to_json(nlohmann::json& j, const BarkDepthOptions& o) {
-  j = {{"enabled", o.enabled},
-       {"baseline_m", o.baseline_m},
-       {"baseline_share", o.baseline_share},
-       {"min_baseline_m", o.min_baseline_m},
-       {"band_half_height_m", o.band_half_height_m},
-       {"inner_share", o.inner_share},
-       {"search_m", o.search_m},
-       {"step_m", o.step_m},
-       {"max_pixels", o.max_pixels},
-       {"min_pixels", o.min_pixels},
-       {"min_pairs", o.min_pairs},
-       {"min_peak_ncc", o.min_peak_ncc},
-       {"min_peak_contrast", o.min_peak_contrast},
-       {"min_surface_ncc", o.min_surface_ncc}};
-}
-
 namespace {
 
 // What keyframe k shows of a stem's bark at breast height: the columns compared (the middle

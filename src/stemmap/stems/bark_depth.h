@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <nlohmann/json_fwd.hpp>
 #include <vector>
 
@@ -41,7 +42,13 @@ struct BarkDepthOptions {
   void Check() const;
 };
 
-void to_json(nlohmann::json& j, const BarkDepthOptions& o);
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(BarkDepthOptions, enabled, baseline_m,
+                                                baseline_share, min_baseline_m, band_half_height_m,
+                                                inner_share, search_m, step_m, max_pixels,
+                                                min_pixels, min_pairs, min_peak_ncc,
+                                                min_peak_contrast, min_surface_ncc)
 
 struct BarkDepth {
   bool ok = false;

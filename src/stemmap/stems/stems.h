@@ -57,6 +57,13 @@ struct StemOptions {
   std::string dbh_method = "tangent";
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    StemOptions, breast_height_m, search_radius_m, band_low_m, band_high_m, grid_m, min_cell_points,
+    split_wide_parts, split_by_bearing, max_depth_smear_m, split_gap_m, split_parts_into_cores,
+    split_range_gap_m, min_points, min_slice_support_m2, weak_support_share, min_diameter_m,
+    max_diameter_m, max_lean_deg, confirm_lean_deg, slice_half_m, free_space_veto, dbh_method)
 
 struct Stem {
   Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();  // plot frame, at breast height

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <nlohmann/json_fwd.hpp>
 #include <opencv2/core.hpp>
 #include <optional>
@@ -98,7 +99,16 @@ struct TangentOptions {
 };
 
 // The options as saved next to the outputs (pixel sizes for a 960-px wide working image).
-void to_json(nlohmann::json& j, const TangentOptions& o);
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    TangentOptions, background_parallax_px, max_neighbour_offset, rows_half, band_half_height_m,
+    search_px, search_share, min_contrast, min_brightness_contrast, huber_m,
+    prior_share_of_distance, min_rays, max_sideways_m, occluder_min_gap_m, refits,
+    wide_start_scales, recheck_wider_scale, recheck_min_gain, narrow_start_scales,
+    narrow_max_rms_px, narrow_min_share, sideways_start_shifts, pooled_min_extra_rays,
+    few_views_min_two_sided, few_views_min_share, settle_few_views, refine_on_brightness,
+    blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images

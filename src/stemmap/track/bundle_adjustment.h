@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,13 @@ struct BundleOptions {
   int threads = 1;
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(BundleOptions, arm_radius_m, sigma_radius_m,
+                                                sigma_height_m, sigma_mount_deg, loss_px,
+                                                outlier_px, min_triangulation_deg, min_observations,
+                                                max_points, max_iterations,
+                                                dense_schur_max_keyframes, refine_focal, threads)
 
 struct BundleSummary {
   int points = 0, observations = 0, rejected_observations = 0, iterations = 0;

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "stemmap/camera/camera.h"
@@ -21,6 +22,10 @@ struct FramePoseOptions {
   int threads = 2;
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(FramePoseOptions, enabled, min_points, inlier_px,
+                                                max_change_deg, threads)
 
 struct FramePoseSummary {
   int refined = 0, interpolated = 0;

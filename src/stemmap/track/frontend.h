@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <vector>
 
@@ -36,6 +37,13 @@ struct FrontendOptions {
   double segment_max_tilt_deg = 15.0;  // and furthest from the image vertical
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    FrontendOptions, working_long_side_px, track_fps, max_features, min_feature_distance_px,
+    feature_quality, lk_window_px, lk_levels, lk_refine_window_px, lk_refine_levels,
+    lk_refine_max_shift_px, max_forward_backward_px, keyframe_step_deg, orb_features,
+    keep_keyframe_images, dark_mean_luma, segment_min_length, segment_max_tilt_deg)
 
 struct Observation {
   int keyframe = 0;

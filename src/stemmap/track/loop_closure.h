@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "stemmap/camera/camera.h"
@@ -18,6 +19,11 @@ struct LoopOptions {
   double merge_radius_px = 2.5;  // ORB keypoint to KLT observation
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(LoopOptions, ratio, threshold_deg, min_inliers,
+                                                min_inlier_share, search_min_turn, search_max_turn,
+                                                merge_radius_px)
 
 // A verified revisit: keyframe `late` sees what keyframe `early` saw one turn before.
 struct LoopPair {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -27,6 +28,10 @@ struct RefineObservationsOptions {
   double min_gradient = 4.0;  // mean gradient (grey levels a px) of the reference patch
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(RefineObservationsOptions, window_px,
+                                                max_iterations, max_shift_px, min_ncc, min_gradient)
 
 struct RefineObservationsSummary {
   int observations = 0;  // considered (valid, on a valid point, not a reference)

@@ -44,6 +44,12 @@ struct TrackOptions {
   FramePoseOptions frames;
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(TrackOptions, arm_radius_m, hfov_deg, calibration,
+                                                focal, camera_height_m, min_turn_deg,
+                                                max_dark_share, bundle_rounds, refine_observations,
+                                                refine, frontend, loop, vertical, bundle, frames)
 
 struct TrackResult {
   PinholeCamera camera;                  // working resolution

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,11 @@ struct VerticalOptions {
   int min_trunk_segments = 3;
   void Check() const;
 };
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(VerticalOptions, inlier_deg, max_from_axis_deg,
+                                                min_segments, cell_m, ray_tolerance_m, min_range_m,
+                                                max_range_m, min_trunk_segments)
 
 struct VerticalEstimate {
   bool found = false;
