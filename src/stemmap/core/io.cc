@@ -4,8 +4,10 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <cmath>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "stemmap/core/error.h"
 
@@ -63,13 +65,41 @@ std::string ReadFileToString(const fs::path& path) {
   return ss.str();
 }
 
+namespace {
+
+// The first number in `j` (walked without recursion: a file may nest deeply) written with a
+// fraction or exponent and beyond what an int holds, or nullptr. nlohmann's get<int>() of such a
+// number is undefined behaviour (a fuzzer's finding: an id of 1e50), and no field of ours is
+// that large.
+const nlohmann::json* FindHugeNumber(const nlohmann::json& j) {
+  constexpr double kLimit = 2147483647.0;
+  std::vector<const nlohmann::json*> todo = {&j};
+  while (!todo.empty()) {
+    const nlohmann::json* v = todo.back();
+    todo.pop_back();
+    if (v->is_number_float() && !(std::abs(v->get<double>()) <= kLimit)) return v;
+    if (v->is_structured()) {
+      for (const nlohmann::json& child : *v) todo.push_back(&child);
+    }
+  }
+  return nullptr;
+}
+
+}  // namespace
+
 nlohmann::json ReadJsonFile(const fs::path& path) {
   const std::string text = ReadFileToString(path);
+  nlohmann::json j;
   try {
-    return nlohmann::json::parse(text);
+    j = nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     throw InputError(fmt::format("{} is not valid JSON: {}", path.string(), e.what()));
   }
+  if (const nlohmann::json* huge = FindHugeNumber(j)) {
+    throw InputError(
+        fmt::format("{} holds a number out of range: {}", path.string(), huge->dump()));
+  }
+  return j;
 }
 
 }  // namespace stemmap

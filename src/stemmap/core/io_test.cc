@@ -46,5 +46,18 @@ TEST(Io, BadJsonIsAnInputError) {
   EXPECT_EQ(ReadJsonFile(path)["a"], 1);
 }
 
+// A fuzzer's finding: get<int>() of a number beyond int's range is undefined behaviour, so such
+// numbers are refused when the file is read, however deep they sit.
+TEST(Io, NumbersBeyondAnIntAreRefused) {
+  const fs::path path = TestDir() / "huge.json";
+  WriteFileAtomic(path,
+                  R"({"trees": [{"id": 111111111111111111111111111111111111111111111111111}]})");
+  EXPECT_THROW(ReadJsonFile(path), InputError);
+  WriteFileAtomic(path, std::string(100000, '[') + "-3e9" + std::string(100000, ']'));
+  EXPECT_THROW(ReadJsonFile(path), InputError);
+  WriteFileAtomic(path, R"({"x_m": 2.5e3, "n": 2000000000, "t": -1.5})");
+  EXPECT_EQ(ReadJsonFile(path)["x_m"].get<double>(), 2500.0);
+}
+
 }  // namespace
 }  // namespace stemmap
