@@ -173,10 +173,11 @@ TEST_F(BadInput, DamagedFilesAreNamedAsSuch) {
   WriteFileAtomic(Dir() / "indexed_cut.mp4", indexed_bytes.substr(0, indexed_bytes.size() / 3));
   ExpectRefused("index first, cut short", Track(Dir() / "indexed_cut.mp4"), 2,
                 {"incomplete", "could be read"});
-  // Zeros over a tenth of the data mid-file: a failure says the file is damaged, a success
-  // flags the damage in its summary.
+  // Zeros over a fifth of the data mid-file (some two seconds of frames): the tracks are bridged
+  // across and the damage flagged in the summary; a failure must say the file is damaged.
   std::string damaged = indexed_bytes;
-  std::fill(damaged.begin() + damaged.size() / 2, damaged.begin() + damaged.size() * 6 / 10, '\0');
+  std::fill(damaged.begin() + damaged.size() * 4 / 10, damaged.begin() + damaged.size() * 6 / 10,
+            '\0');
   WriteFileAtomic(Dir() / "zeros.mp4", damaged);
   const Outcome o = RunStemmap(Track(Dir() / "zeros.mp4"));
   if (o.exit_code == 0) {
@@ -184,6 +185,7 @@ TEST_F(BadInput, DamagedFilesAreNamedAsSuch) {
     EXPECT_GT(summary["track"]["video"]["damaged_frames"].get<int>() +
                   summary["track"]["video"]["corrupt_packets"].get<int>(),
               0);
+    EXPECT_FALSE(summary["track"]["video"]["damaged_spans_s"].empty());
   } else {
     EXPECT_NE(LastLine(o.stderr_text).find("damaged"), std::string::npos) << o.stderr_text;
   }

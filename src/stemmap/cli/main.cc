@@ -36,8 +36,9 @@ int main(int argc, char** argv) {
   stemmap::InstallInterruptHandler();
   // The log goes to stderr with the errors; stdout carries only the results (the tree table).
   spdlog::set_default_logger(spdlog::stderr_color_mt("stemmap"));
-  // OpenCV's warnings would interleave with ours; its errors arrive as exceptions.
-  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+  // OpenCV's messages would interleave with ours (ApplyLogLevel lets them through at debug);
+  // its errors arrive as exceptions.
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   CLI::App app{"stemmap: forest-plot tree list (stem positions and DBH) from one circular video"};
   app.set_version_flag("--version", std::string("stemmap ") + STEMMAP_VERSION);
   app.require_subcommand(1);

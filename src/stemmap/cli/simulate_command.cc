@@ -2,6 +2,7 @@
 #include <spdlog/spdlog.h>
 
 #include <memory>
+#include <opencv2/core/utils/logger.hpp>
 
 #include "stemmap/cli/commands.h"
 #include "stemmap/sim/simulate.h"
@@ -11,7 +12,13 @@ namespace stemmap::cli {
 void ApplyLogLevel(const CLI::App& app) {
   const CLI::App* root = &app;
   while (root->get_parent()) root = root->get_parent();
-  spdlog::set_level(spdlog::level::from_str(root->get_option("--log-level")->as<std::string>()));
+  const spdlog::level::level_enum level =
+      spdlog::level::from_str(root->get_option("--log-level")->as<std::string>());
+  spdlog::set_level(level);
+  // OpenCV (4.6) cannot hand its messages to our log, so it speaks only at debug level and below.
+  cv::utils::logging::setLogLevel(level <= spdlog::level::debug
+                                      ? cv::utils::logging::LOG_LEVEL_WARNING
+                                      : cv::utils::logging::LOG_LEVEL_SILENT);
 }
 
 void AddSimulateCommand(CLI::App& app) {

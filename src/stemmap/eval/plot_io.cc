@@ -27,9 +27,9 @@ TruthPlot ReadTruthJson(const std::filesystem::path& path) {
         const auto& t = p.at("t_xyz");
         const auto& q = p.at("q_xyzw");
         Rigid3d pose;
-        pose.translation = {t[0].get<double>(), t[1].get<double>(), t[2].get<double>()};
-        pose.rotation = Eigen::Quaterniond(q[3].get<double>(), q[0].get<double>(),
-                                           q[1].get<double>(), q[2].get<double>())
+        pose.translation = {t.at(0).get<double>(), t.at(1).get<double>(), t.at(2).get<double>()};
+        pose.rotation = Eigen::Quaterniond(q.at(3).get<double>(), q.at(0).get<double>(),
+                                           q.at(1).get<double>(), q.at(2).get<double>())
                             .normalized();
         truth.poses.push_back({p.at("t_s").get<double>(), pose});
       }

@@ -49,6 +49,16 @@ void AddMissingSpans(double fps, const std::vector<double>& frame_t_s,
     }
   }
   std::sort(spans->begin(), spans->end());
+  // Overlapping stretches (damaged frames next to missing ones) become one.
+  std::vector<std::pair<double, double>> merged;
+  for (const auto& s : *spans) {
+    if (!merged.empty() && s.first <= merged.back().second) {
+      merged.back().second = std::max(merged.back().second, s.second);
+    } else {
+      merged.push_back(s);
+    }
+  }
+  *spans = std::move(merged);
 }
 
 struct Tracker {

@@ -122,6 +122,34 @@ std::string DamageNote(const FrontendResult& f) {
   return note;
 }
 
+// Fills the turn increments lost (NaN) where damaged or missing frames broke the tracks between
+// two keyframes at most `max_gap_s` apart, with the median turn rate of the tracked increments
+// nearby times the time between them. Returns the bridged stretches (s).
+std::vector<std::pair<double, double>> BridgeDamagedGaps(const FrontendResult& f, double max_gap_s,
+                                                         std::vector<double>* inc) {
+  std::vector<std::pair<double, double>> bridged;
+  const auto damaged_between = [&f](double t0, double t1) {
+    return std::any_of(f.damaged_spans_s.begin(), f.damaged_spans_s.end(),
+                       [&](const auto& s) { return s.first <= t1 && s.second >= t0; });
+  };
+  constexpr int kRateWindow = 6;  // keyframes either side whose turn rate is used
+  for (size_t k = 1; k < inc->size(); ++k) {
+    const double t0 = f.keyframes[k - 1].t_s, t1 = f.keyframes[k].t_s;
+    if (!std::isnan((*inc)[k]) || t1 - t0 > max_gap_s || !damaged_between(t0, t1)) continue;
+    std::vector<double> rates;
+    for (size_t j = k > kRateWindow ? k - kRateWindow : 1;
+         j < std::min(inc->size(), k + kRateWindow + 1); ++j) {
+      const double dt = f.keyframes[j].t_s - f.keyframes[j - 1].t_s;
+      if (j != k && !std::isnan((*inc)[j]) && dt > 0) rates.push_back((*inc)[j] / dt);
+    }
+    if (rates.empty()) continue;
+    std::nth_element(rates.begin(), rates.begin() + rates.size() / 2, rates.end());
+    (*inc)[k] = rates[rates.size() / 2] * (t1 - t0);
+    bridged.emplace_back(t0, t1);
+  }
+  return bridged;
+}
+
 PinholeCamera WorkingCamera(const TrackOptions& o, const VideoInfo& info) {
   const int long_side = std::max(info.width, info.height);
   double s = 1.0;
@@ -136,6 +164,7 @@ PinholeCamera WorkingCamera(const TrackOptions& o, const VideoInfo& info) {
 }  // namespace
 
 void TrackOptions::Check() const {
+  if (!(max_bridged_gap_s >= 0)) throw InputError("the longest bridged gap must not be negative");
   if (calibration.empty() && !(hfov_deg >= 20.0 && hfov_deg <= 150.0)) {
     throw InputError(fmt::format("--hfov {}° is outside 20-150°", hfov_deg));
   }
@@ -213,7 +242,13 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
         f.frame_t_s.size(), f.keyframes.size(), damage));
   }
   if (!damage.empty()) spdlog::warn("track: {}", damage.substr(2));
-  const std::vector<double> inc = ApparentTurnIncrements(f, r.camera, 0.1, 15);
+  std::vector<double> inc = ApparentTurnIncrements(f, r.camera, 0.1, 15);
+  const std::vector<std::pair<double, double>> bridged =
+      BridgeDamagedGaps(f, o.max_bridged_gap_s, &inc);
+  for (const auto& [from_s, to_s] : bridged) {
+    spdlog::warn("track: tracks broken by damaged frames bridged from {:.1f} to {:.1f} s", from_s,
+                 to_s);
+  }
   std::vector<double> turn(inc.size(), 0.0);
   for (size_t k = 1; k < inc.size(); ++k) {
     if (std::isnan(inc[k])) {
@@ -342,6 +377,7 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
                 {"damaged_spans_s", f.damaged_spans_s},
                 {"header_duration_s", f.info.duration_s},
                 {"incomplete", EndsEarly(f)},
+                {"bridged_spans_s", bridged},
                 {"dark_frames", f.dark_frames}};
   s["camera"] = r.camera;
   s["focal_refined"] = bo.refine_focal;

@@ -32,6 +32,9 @@ struct TrackOptions {
   double camera_height_m = 0.0;
   double min_turn_deg = 355.0;  // less than this is not a full turn
   double max_dark_share = 0.5;  // more dark frames than this: too dark
+  // Where damaged or missing frames break the tracks, a gap up to this long (s) is bridged at the
+  // turn rate of the keyframes either side; the loop closure then settles the heading.
+  double max_bridged_gap_s = 3.0;
   int bundle_rounds = 3;
   // Before the last round, the keyframe observations are matched again against one view of each
   // point (see refine_observations.h).
@@ -48,8 +51,9 @@ struct TrackOptions {
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(TrackOptions, arm_radius_m, hfov_deg, calibration,
                                                 focal, camera_height_m, min_turn_deg,
-                                                max_dark_share, bundle_rounds, refine_observations,
-                                                refine, frontend, loop, vertical, bundle, frames)
+                                                max_dark_share, max_bridged_gap_s, bundle_rounds,
+                                                refine_observations, refine, frontend, loop,
+                                                vertical, bundle, frames)
 
 struct TrackResult {
   PinholeCamera camera;                  // working resolution
