@@ -180,7 +180,11 @@ VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options
   }
   AVStream* stream = m.fmt->streams[m.stream_index];
   m.dec = avcodec_alloc_context3(codec);
-  avcodec_parameters_to_context(m.dec, stream->codecpar);
+  if (!m.dec) throw ProcessingError("out of memory opening a video decoder");
+  ret = avcodec_parameters_to_context(m.dec, stream->codecpar);
+  if (ret < 0) {
+    throw InputError(fmt::format("cannot decode {}: {}", path.string(), AvError(ret)));
+  }
   m.dec->thread_count = options.threads;
   ret = avcodec_open2(m.dec, codec, nullptr);
   if (ret < 0) {
@@ -217,6 +221,7 @@ VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options
   m.info.full_height = swap ? m.full_w : m.full_h;
   m.frame = av_frame_alloc();
   m.packet = av_packet_alloc();
+  if (!m.frame || !m.packet) throw ProcessingError("out of memory opening a video");
   if (options.prefetch_frames > 0) m.worker = std::thread([&m] { m.Prefetch(); });
 }
 
