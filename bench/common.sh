@@ -4,6 +4,18 @@ build=${1:-build}
 data=${2:-/tmp/stemmap-bench-plots}
 bin="$build/src/stemmap/cli/stemmap"
 seeds=${SEEDS:-1 2 3 4 5}
+# FRESH=N: instead of SEEDS, N seeds drawn from the commit's hash, so every commit is judged on
+# plots nobody tuned to (the tuning seeds are 1-5; these are 6 digits). The same commit gives
+# the same seeds.
+if [ -n "${FRESH:-}" ]; then
+  commit=$(git -C "$here/.." rev-parse HEAD)
+  seeds=$(python3 -c "
+import hashlib, sys
+h = hashlib.sha256(sys.argv[1].encode()).digest()
+print(' '.join(str(100000 + int.from_bytes(h[3 * i:3 * i + 3], 'big') % 900000)
+               for i in range(int(sys.argv[2]))))" "$commit" "$FRESH")
+  echo "fresh seeds from commit ${commit:0:7}: $seeds" >&2
+fi
 kinds=${KINDS:-managed natural}
 height_source=${HEIGHT_SOURCE:-measured}
 mkdir -p "$data"

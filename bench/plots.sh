@@ -2,7 +2,8 @@
 # Tree-list benchmark: `stemmap process` on simulated plots (rendered once into DATA and reused),
 # scored by `stemmap evaluate` for trees with DBH >= 10 cm within 10 m, for each DBH estimator.
 # Usage: bench/plots.sh [BUILD_DIR] [DATA_DIR]
-#   SEEDS, KINDS, HEIGHT_SOURCE, SIM_ARGS as in bench/trajectory.sh.
+#   SEEDS (or FRESH=N: N seeds from the commit hash), KINDS, HEIGHT_SOURCE, SIM_ARGS as in
+#   bench/trajectory.sh.
 # One run per plot (timed, its times on the first row); every estimator is scored from that run's
 # stems_detail.csv, so all see the same detections and positions.
 set -euo pipefail
