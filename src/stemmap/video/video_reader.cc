@@ -55,8 +55,9 @@ int DisplayRotationDeg(const AVStream* stream) {
 // them) or writes past the row's end (540 px: 12 bytes), so that case takes the exact path
 // (SWS_ACCURATE_RND), which the benchmark's sizes (multiples of 16) never need. And its vector
 // stores may reach a few bytes past a row: into the next row, written afterwards, or, after the
-// last row, past the image; the image is therefore a view of a buffer with spare rows below it
-// (still one continuous block).
+// last row, past the image; so it writes into a buffer with spare rows below the image, which is
+// then copied out. (The image must not stay a view of that buffer: OpenCV's filters read past a
+// view's edges into its parent, here the unwritten spare rows, instead of making a border.)
 cv::Mat Convert(SwsContext** ctx, const AVFrame* frame, int w, int h, AVPixelFormat format,
                 int cv_type) {
   const bool unscaled_rgb = w == frame->width && h == frame->height && format != AV_PIX_FMT_GRAY8;
@@ -79,7 +80,7 @@ cv::Mat Convert(SwsContext** ctx, const AVFrame* frame, int w, int h, AVPixelFor
     throw ProcessingError(fmt::format("converting a {}x{} frame gave {} of {} rows", frame->width,
                                       frame->height, rows, h));
   }
-  return buffer.rowRange(0, h);
+  return buffer.rowRange(0, h).clone();
 }
 
 // The image turned clockwise by `rotation_deg` (0, 90, 180 or 270).

@@ -303,6 +303,13 @@ void ExpectDecodedAsShown(const PatternClip& clip, int max_long_side_px) {
     while (auto f = reader.Next()) {
       ASSERT_LT(n, clip.shown.size());
       ASSERT_TRUE(f->bgr.isContinuous());
+      // Not a view into a larger buffer: OpenCV's filters would read past its edges.
+      cv::Size whole;
+      cv::Point offset;
+      f->bgr.locateROI(whole, offset);
+      EXPECT_EQ(whole, f->bgr.size());
+      f->gray_full.locateROI(whole, offset);
+      EXPECT_EQ(whole, f->gray_full.size());
       ASSERT_EQ(f->gray_full.size(), full);
       cv::Mat expected_gray;
       cv::cvtColor(clip.shown[n], expected_gray, cv::COLOR_BGR2GRAY);
