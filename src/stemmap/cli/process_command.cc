@@ -3,7 +3,6 @@
 #include <memory>
 
 #include "stemmap/cli/commands.h"
-#include "stemmap/core/io.h"
 #include "stemmap/pipeline/process.h"
 
 namespace stemmap::cli {
@@ -57,16 +56,11 @@ void AddProcessCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--mask-threshold", opt->mask.threshold, "Trunk probability threshold")
       ->capture_default_str();
-  auto options_file = std::make_shared<std::filesystem::path>();
-  sub->add_option("--options", *options_file,
-                  "Every option of an earlier run (its process_options.json), to run again with "
-                  "them; flags given here that differ from their defaults override the file's")
-      ->check(CLI::ExistingFile);
-  sub->callback([sub, opt, video, out, options_file] {
+  const std::function<void()> apply_options_file =
+      AddOptionsFile(sub, opt.get(), "process_options.json");
+  sub->callback([sub, opt, video, out, apply_options_file] {
     ApplyLogLevel(*sub);
-    if (!options_file->empty()) {
-      *opt = OverlayOptions(ReadOptionsJson<pipeline::ProcessOptions>(*options_file), *opt);
-    }
+    apply_options_file();
     const pipeline::ProcessResult r = pipeline::RunProcess(*opt, *video, *out);
     fmt::print("{}wrote {}\n", r.Table(), out->string());
   });

@@ -3,7 +3,6 @@
 #include <memory>
 
 #include "stemmap/cli/commands.h"
-#include "stemmap/core/io.h"
 #include "stemmap/track/track.h"
 
 namespace stemmap::cli {
@@ -52,16 +51,11 @@ void AddTrackCommand(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "track", "Camera trajectory of a capture video (trajectory.tum, sparse.ply, summary)");
   AddTrackOptions(sub, opt.get(), video.get(), out.get());
-  auto options_file = std::make_shared<std::filesystem::path>();
-  sub->add_option("--options", *options_file,
-                  "Every option of an earlier run (its track_options.json), to run again with "
-                  "them; flags given here that differ from their defaults override the file's")
-      ->check(CLI::ExistingFile);
-  sub->callback([sub, opt, video, out, options_file] {
+  const std::function<void()> apply_options_file =
+      AddOptionsFile(sub, opt.get(), "track_options.json");
+  sub->callback([sub, opt, video, out, apply_options_file] {
     ApplyLogLevel(*sub);
-    if (!options_file->empty()) {
-      *opt = OverlayOptions(ReadOptionsJson<track::TrackOptions>(*options_file), *opt);
-    }
+    apply_options_file();
     const track::TrackResult r = track::RunTrack(*opt, *video, *out);
     fmt::print("track: {}\nwrote {}\n", r.BriefReport(), out->string());
   });
