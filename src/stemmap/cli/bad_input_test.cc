@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "stemmap/core/io.h"
@@ -86,6 +87,10 @@ class BadInput : public ::testing::Test {
     have_ffmpeg_ = true;
     Simulate("plot", 1.1);
     Simulate("half", 0.5);
+  }
+  static void TearDownTestSuite() {
+    std::error_code ignored;
+    fs::remove_all(Dir(), ignored);
   }
   // The simulated captures, rendered once and shared by the tests (each runs in a process of its
   // own) and by the builds (rendering is the slow part under the sanitizers, and the sanitizer
