@@ -44,7 +44,7 @@ e = json.load(open(f"{out}/eval_{est}/evaluation.json"))["raw"]
 s = json.load(open(f"{out}/summary.json"))["timing_s"]
 d = e["dbh"]
 timing = (f"{float(wall):.1f} / {s['track_s']:.1f} / {s['dense_s']:.1f} / "
-          f"{s['stems_s'] + s['tangent_rays_s']:.1f}") if est == "slice" else ""
+          f"{s['stems_s']:.1f}") if est == "slice" else ""
 print(f"| {name} | {est} | {e['recall']:.3f} | {e['precision']:.3f} | {d['mae_cm']:.2f} | "
       f"{d['rmse_cm']:.2f} | {d['bias_cm']:+.2f} | {d['mare_pct']:.2f} | "
       f"{100 * e['position_rmse_m']:.1f} | {timing} | {rss if est == 'slice' else ''} |")

@@ -8,7 +8,7 @@ cd "$(dirname "$0")/.."
 seconds="${1:-30}"
 shift || true
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(tum track_folder calibration layout truth trees_csv options)
+[ ${#targets[@]} -eq 0 ] && targets=(tum track_folder calibration layout truth trees_csv options cloud)
 CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DSTEMMAP_FUZZ=ON -DSTEMMAP_BUILD_TESTS=OFF \
   -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" > /dev/null
 cmake --build build-fuzz --target "${targets[@]/%/_fuzzer}"

@@ -17,6 +17,7 @@ void AddEvaluateCommand(CLI::App& app);
 void AddTrackCommand(CLI::App& app);
 void AddCalibrateCommand(CLI::App& app);
 void AddProcessCommand(CLI::App& app);
+void AddStemsCommand(CLI::App& app);
 
 // The video, output folder and camera/rig options shared by `track` and `process`.
 void AddTrackOptions(CLI::App* sub, track::TrackOptions* opt, std::filesystem::path* video,

@@ -50,6 +50,7 @@ int main(int argc, char** argv) {
   stemmap::cli::AddCalibrateCommand(app);
   stemmap::cli::AddTrackCommand(app);
   stemmap::cli::AddProcessCommand(app);
+  stemmap::cli::AddStemsCommand(app);
   stemmap::cli::AddEvaluateCommand(app);
   try {
     app.parse(argc, argv);

@@ -1,11 +1,40 @@
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <memory>
 
 #include "stemmap/cli/commands.h"
+#include "stemmap/core/io.h"
 #include "stemmap/pipeline/process.h"
 
 namespace stemmap::cli {
+
+namespace {
+
+// The tree list's own flags, shared by process and stems.
+void AddMeasureFlags(CLI::App* sub, pipeline::ProcessOptions* opt) {
+  sub->add_option("--plot-radius", opt->plot_radius_m, "Plot radius for the plot figures (m)")
+      ->capture_default_str();
+  sub->add_option("--min-dbh", opt->measure.min_dbh_cm, "Smallest DBH listed and counted (cm)")
+      ->capture_default_str();
+  sub->add_option("--breast-height", opt->measure.stems.breast_height_m,
+                  "Height of the DBH above the ground at the stem (m)")
+      ->capture_default_str();
+  sub->add_option("--dbh-method", opt->measure.stems.dbh_method,
+                  "tangent (rays tangent to the silhouettes in every view; the slice width where "
+                  "none fit), slice (robust width of a 0.1 m slice across the view) or circle "
+                  "(fitted to that slice)")
+      ->check(CLI::IsMember({"tangent", "slice", "circle"}))
+      ->capture_default_str();
+  sub->add_flag("--require-silhouette,!--keep-unconfirmed", opt->measure.require_silhouette,
+                "Drop cloud parts whose silhouettes were not found (default); "
+                "--keep-unconfirmed keeps them, flagged no_silhouette");
+  sub->add_flag("--report,!--no-report", opt->write_report,
+                "Write map.svg and report.html with a picture of each stem at breast height "
+                "(default)");
+}
+
+}  // namespace
 
 void AddProcessCommand(CLI::App& app) {
   auto opt = std::make_shared<pipeline::ProcessOptions>();
@@ -24,25 +53,7 @@ void AddProcessCommand(CLI::App& app) {
                            "--working-size", "--track-fps", "--threads"}) {
     from_track->excludes(sub->get_option(name));
   }
-  sub->add_option("--plot-radius", opt->plot_radius_m, "Plot radius for the plot figures (m)")
-      ->capture_default_str();
-  sub->add_option("--min-dbh", opt->min_dbh_cm, "Smallest DBH listed and counted (cm)")
-      ->capture_default_str();
-  sub->add_option("--breast-height", opt->stems.breast_height_m,
-                  "Height of the DBH above the ground at the stem (m)")
-      ->capture_default_str();
-  sub->add_option("--dbh-method", opt->stems.dbh_method,
-                  "tangent (rays tangent to the silhouettes in every view; the slice width where "
-                  "none fit), slice (robust width of a 0.1 m slice across the view) or circle "
-                  "(fitted to that slice)")
-      ->check(CLI::IsMember({"tangent", "slice", "circle"}))
-      ->capture_default_str();
-  sub->add_flag("--require-silhouette,!--keep-unconfirmed", opt->require_silhouette,
-                "Drop cloud parts whose silhouettes were not found (default); "
-                "--keep-unconfirmed keeps them, flagged no_silhouette");
-  sub->add_flag("--report,!--no-report", opt->write_report,
-                "Write map.svg and report.html with a picture of each stem at breast height "
-                "(default)");
+  AddMeasureFlags(sub, opt.get());
   sub->add_option("--mask-model", opt->mask.model,
                   "Optional learned trunk segmentation network (ONNX, or any format OpenCV's dnn "
                   "reads); see docs/mask-model.md")
@@ -62,6 +73,40 @@ void AddProcessCommand(CLI::App& app) {
     ApplyLogLevel(*sub);
     apply_options_file();
     const pipeline::ProcessResult r = pipeline::RunProcess(*opt, *video, *out);
+    fmt::print("{}wrote {}\n", r.Table(), out->string());
+  });
+}
+
+void AddStemsCommand(CLI::App& app) {
+  auto opt = std::make_shared<pipeline::ProcessOptions>();
+  auto video = std::make_shared<std::filesystem::path>();
+  auto from = std::make_shared<std::filesystem::path>();
+  auto out = std::make_shared<std::filesystem::path>();
+  CLI::App* sub = app.add_subcommand(
+      "stems",
+      "The tree list again from a finished process run's folder (its track and cloud), with other "
+      "detection or DBH options, without tracking or depth");
+  sub->add_option("video", *video, "The capture video the run was made from")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sub->add_option("--from", *from, "Output folder of a finished `stemmap process` run")
+      ->required()
+      ->check(CLI::ExistingDirectory);
+  sub->add_option("--out", *out, "Output folder")->required();
+  AddMeasureFlags(sub, opt.get());
+  // Without --options, the run's own options are the ones flags change.
+  auto file = std::make_shared<std::filesystem::path>();
+  sub->add_option("--options", *file,
+                  "Every option of an earlier run (its process_options.json; default: the one in "
+                  "--from); flags given here that differ from their defaults override the file's")
+      ->check(CLI::ExistingFile);
+  sub->callback([sub, opt, video, from, out, file] {
+    ApplyLogLevel(*sub);
+    const std::filesystem::path saved = file->empty() ? *from / "process_options.json" : *file;
+    if (std::filesystem::exists(saved)) {
+      *opt = OverlayOptions(ReadOptionsJson<pipeline::ProcessOptions>(saved), *opt);
+    }
+    const pipeline::ProcessResult r = pipeline::RunStems(*opt, *video, *from, *out);
     fmt::print("{}wrote {}\n", r.Table(), out->string());
   });
 }

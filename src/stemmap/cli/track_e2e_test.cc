@@ -120,10 +120,11 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   EXPECT_GT(r.figures.basal_area_m2_per_ha, 0.0);
   // The resolved options sit beside the outputs, the silhouette search's included.
   const nlohmann::json saved = ReadJsonFile(dir / "out" / "process_options.json");
-  EXPECT_EQ(saved["tangent"]["sideways_start_shifts"].get<std::vector<double>>(),
-            o.tangent.sideways_start_shifts);
-  EXPECT_EQ(saved["stems"]["breast_height_m"].get<double>(), o.stems.breast_height_m);
-  for (const stems::Stem& s : r.stems) EXPECT_GE(100 * s.dbh_m, o.min_dbh_cm);
+  EXPECT_EQ(saved["measure"]["tangent"]["sideways_start_shifts"].get<std::vector<double>>(),
+            o.measure.tangent.sideways_start_shifts);
+  EXPECT_EQ(saved["measure"]["stems"]["breast_height_m"].get<double>(),
+            o.measure.stems.breast_height_m);
+  for (const stems::Stem& s : r.stems) EXPECT_GE(100 * s.dbh_m, o.measure.min_dbh_cm);
   // tree_id counts outward from the centre.
   for (size_t i = 1; i < r.stems.size(); ++i) {
     EXPECT_LE(r.stems[i - 1].centre_xy.norm(), r.stems[i].centre_xy.norm()) << i;
@@ -150,6 +151,25 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   EXPECT_TRUE(fs::exists(dir / "again" / "trajectory.tum"));
   EXPECT_EQ(ReadJsonFile(dir / "again" / "summary.json")["track"]["reused_from"],
             fs::absolute(dir / "out").string());
+  // Detection alone again from the process run's folder: the same trees.
+  const pipeline::ProcessResult r3 =
+      pipeline::RunStems(o, dir / "video.mp4", dir / "out", dir / "stems");
+  ASSERT_EQ(r3.stems.size(), r.stems.size());
+  for (size_t i = 0; i < r.stems.size(); ++i) {
+    EXPECT_NEAR((r3.stems[i].centre_xy - r.stems[i].centre_xy).norm(), 0.0, 1e-6) << i;
+    EXPECT_NEAR(r3.stems[i].dbh_m, r.stems[i].dbh_m, 1e-6) << i;
+  }
+  for (const char* f : {"trees.csv", "summary.json", "process_options.json", "cloud.ply",
+                        "cloud_coarse.ply", "keyframes.tum"}) {
+    EXPECT_TRUE(fs::exists(dir / "stems" / f)) << f;
+  }
+  // A track without a cloud is no folder to detect from.
+  fs::create_directories(dir / "track_only");
+  for (const char* f : {"keyframes.tum", "summary.json"}) {
+    fs::copy_file(dir / "out" / f, dir / "track_only" / f);
+  }
+  EXPECT_THROW(pipeline::RunStems(o, dir / "video.mp4", dir / "track_only", dir / "bad"),
+               InputError);
   // A folder that holds no track, or a video of another size, is refused.
   pipeline::ProcessOptions bad = o;
   bad.from_track = dir / "again" / "missing";

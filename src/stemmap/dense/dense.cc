@@ -11,6 +11,7 @@
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/core/progress.h"
+#include "stemmap/dense/cloud_io.h"
 #include "stemmap/dense/trunk_mask.h"
 
 namespace stemmap::dense {
@@ -71,27 +72,6 @@ std::vector<std::pair<int, int>> SelectPairs(const std::vector<double>& heading,
 }
 
 }  // namespace
-
-void WriteCloudPly(const std::filesystem::path& path, const std::vector<CloudPoint>& pts) {
-  std::string s = fmt::format(
-      "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\n"
-      "property float y\nproperty float z\nproperty uchar red\nproperty uchar green\n"
-      "property uchar blue\nproperty float ox\nproperty float oy\nproperty float oz\n"
-      "end_header\n",
-      pts.size());
-  const size_t header = s.size(), record = 3 * 4 + 3 + 3 * 4;
-  s.resize(header + record * pts.size());
-  char* p = s.data() + header;
-  for (const CloudPoint& c : pts) {
-    std::memcpy(p, c.world.data(), 12);
-    p[12] = static_cast<char>(c.bgr[2]);
-    p[13] = static_cast<char>(c.bgr[1]);
-    p[14] = static_cast<char>(c.bgr[0]);
-    std::memcpy(p + 15, c.origin.data(), 12);
-    p += record;
-  }
-  WriteFileAtomic(path, s);
-}
 
 DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
                      const std::filesystem::path& out_dir) {
@@ -160,7 +140,9 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
     r.summary["masked_keyframes"] = masked;
     r.summary["trunk_points"] = on_trunk;
   }
+  r.summary["depth_focal_px"] = r.depth_focal_px;
   WriteCloudPly(out_dir / "cloud.ply", r.points);
+  WriteCloudPly(out_dir / "cloud_coarse.ply", r.short_baseline_points);
   WriteJsonAtomic(out_dir / "dense_summary.json", r.summary);
   spdlog::info("dense: {} pairs, {} points in {:.1f} s", r.pairs, r.points.size(), wall);
   return r;

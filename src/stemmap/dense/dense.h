@@ -53,11 +53,9 @@ struct DenseResult {
 };
 
 // Depth for keyframe pairs, fused into one cloud that keeps each point's ray. Writes
-// OUT/cloud.ply (binary: x y z, red green blue, ray origin ox oy oz) and OUT/dense_summary.json.
+// OUT/cloud.ply and OUT/cloud_coarse.ply (the short-baseline points; cloud_io.h) and
+// OUT/dense_summary.json (with depth_focal_px).
 DenseResult RunDense(const DenseOptions& options, const DenseInput& input,
                      const std::filesystem::path& out_dir);
-
-// Binary little-endian PLY of the cloud, written atomically.
-void WriteCloudPly(const std::filesystem::path& path, const std::vector<CloudPoint>& points);
 
 }  // namespace stemmap::dense

@@ -12,7 +12,7 @@
 #include "stemmap/core/io.h"
 #include "stemmap/core/pose.h"
 #include "stemmap/core/run_folder.h"
-#include "stemmap/pipeline/refine.h"
+#include "stemmap/dense/cloud_io.h"
 #include "stemmap/report/report.h"
 #include "stemmap/track/track_io.h"
 
@@ -21,41 +21,9 @@ namespace stemmap::pipeline {
 void ProcessOptions::Check() const {
   track.Check();
   dense.Check();
-  stems.Check();
-  bark_depth.Check();
+  measure.Check();
   if (!mask.model.empty()) mask.Check();
   if (!(plot_radius_m > 0)) throw InputError("--plot-radius must be positive");
-  if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
-  if (!(one_sided_min_cloud_radius_m >= 0)) {
-    throw InputError("the cloud radius a one-sided fit may widen must not be negative");
-  }
-  if (!(one_sided_max_over_cloud >= 1)) {
-    throw InputError("a one-sided fit's bound over the cloud's width must be at least 1");
-  }
-  if (!(min_bark_gap_m >= 0 && min_bark_gap_m < 1)) {
-    throw InputError("the smallest gap between two stems' bark must lie in [0, 1) m");
-  }
-  if (!(larger_cloud_part_gap_m >= 0)) {
-    throw InputError(
-        "the gap within which a larger cloud's part joins a stem must not be negative");
-  }
-  if (!(larger_cloud_only_max_rms_px >= 0)) {
-    throw InputError("the rms a larger cloud's stem's silhouettes may keep must not be negative");
-  }
-  if (!(wide_fit_scale >= 1)) {
-    throw InputError(
-        "the width over the cloud's that needs the bark to line up must be at least 1");
-  }
-  if (!(wide_fit_min_bark_ncc >= -1 && wide_fit_min_bark_ncc <= 1)) {
-    throw InputError("the bark correlation a wide fit needs must lie in [-1, 1]");
-  }
-  if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
-    throw InputError(
-        "the share of a part's width below which its cores are tried must lie in [0, 1]");
-  }
-  if (!(min_core_share >= 0 && min_core_share <= 1)) {
-    throw InputError("the share of a part's width a core must reach must lie in [0, 1]");
-  }
 }
 
 namespace {
@@ -65,7 +33,7 @@ void WriteProcessReport(const ProcessOptions& o, const track::TrackResult& tr,
                         const std::filesystem::path& video, const std::filesystem::path& out_dir) {
   report::ReportOptions ro;
   ro.map.plot_radius_m = o.plot_radius_m;
-  ro.breast_height_m = o.stems.breast_height_m;
+  ro.breast_height_m = o.measure.stems.breast_height_m;
   report::ReportInput in;
   in.stems = &r.stems;
   in.camera = &tr.camera;
@@ -76,18 +44,105 @@ void WriteProcessReport(const ProcessOptions& o, const track::TrackResult& tr,
   }
   in.title = fmt::format("stemmap plot report: {}", video.filename().string());
   const PlotFigures& f = r.figures;
-  in.figures = {
-      {"stems listed (within 11 m)", fmt::format("{}", r.stems.size())},
-      {fmt::format("stems in the {:g}-m plot, DBH ≥ {:g} cm", o.plot_radius_m, o.min_dbh_cm),
-       fmt::format("{}", f.stems)},
-      {"stems per hectare", fmt::format("{:.0f}", f.stems_per_ha)},
-      {"basal area", fmt::format("{:.1f} m²/ha", f.basal_area_m2_per_ha)},
-      {"quadratic mean diameter", fmt::format("{:.1f} cm", f.qmd_cm)},
-      {"DBH method", o.stems.dbh_method}};
+  in.figures = {{"stems listed (within 11 m)", fmt::format("{}", r.stems.size())},
+                {fmt::format("stems in the {:g}-m plot, DBH ≥ {:g} cm", o.plot_radius_m,
+                             o.measure.min_dbh_cm),
+                 fmt::format("{}", f.stems)},
+                {"stems per hectare", fmt::format("{:.0f}", f.stems_per_ha)},
+                {"basal area", fmt::format("{:.1f} m²/ha", f.basal_area_m2_per_ha)},
+                {"quadratic mean diameter", fmt::format("{:.1f} cm", f.qmd_cm)},
+                {"DBH method", o.measure.stems.dbh_method}};
   report::WriteReport(ro, in, out_dir);
 }
 
+// Where a finished run's file is needed by a later one: hard-linked when the file system allows
+// (the cloud is large), else copied.
+void LinkOrCopy(const std::filesystem::path& from, const std::filesystem::path& to) {
+  std::error_code ec;
+  std::filesystem::create_hard_link(from, to, ec);
+  if (ec) std::filesystem::copy_file(from, to, std::filesystem::copy_options::overwrite_existing);
+}
+
+// The cloud of a finished run (`dir`), with its coarse points and depth focal length.
+struct SavedCloud {
+  std::vector<dense::CloudPoint> points, coarse;
+  nlohmann::json summary;
+  double depth_focal_px = 0.0;
+};
+SavedCloud ReadSavedCloud(const std::filesystem::path& dir) {
+  for (const char* name : {"cloud.ply", "cloud_coarse.ply", "dense_summary.json"}) {
+    if (!std::filesystem::is_regular_file(dir / name)) {
+      throw InputError(fmt::format(
+          "{} has no {}: `stems --from` needs the folder of a finished `stemmap process` run",
+          dir.string(), name));
+    }
+  }
+  SavedCloud c;
+  c.points = dense::ReadCloudPly(dir / "cloud.ply");
+  c.coarse = dense::ReadCloudPly(dir / "cloud_coarse.ply");
+  c.summary = ReadJsonFile(dir / "dense_summary.json");
+  const auto focal = c.summary.find("depth_focal_px");
+  if (focal == c.summary.end() || !focal->is_number() || !(focal->get<double>() >= 0)) {
+    throw InputError(fmt::format("{}: no depth_focal_px", (dir / "dense_summary.json").string()));
+  }
+  c.depth_focal_px = focal->get<double>();
+  return c;
+}
+
 }  // namespace
+
+void WriteTreeOutputs(const ProcessOptions& o, const track::TrackResult& tr,
+                      const std::vector<cv::Mat>& images, const std::filesystem::path& video,
+                      const std::filesystem::path& out_dir, ProcessResult* r) {
+  r->figures = ComputePlotFigures(r->stems, o.plot_radius_m, o.measure.min_dbh_cm);
+  WriteTreesCsv(out_dir / "trees.csv", r->stems, o.measure.stems.breast_height_m, o.plot_radius_m);
+  WriteStemDetails(out_dir / "stems_detail.csv", r->stems);
+  if (o.write_report) WriteProcessReport(o, tr, images, *r, video, out_dir);
+  r->summary["plot"] = PlotSummaryJson(r->figures, static_cast<int>(r->stems.size()),
+                                       o.plot_radius_m, o.measure.min_dbh_cm);
+  for (const auto& w : r->summary["plot"]["warnings"]) spdlog::warn("{}", w.get<std::string>());
+}
+
+ProcessResult RunStems(const ProcessOptions& o, const std::filesystem::path& video,
+                       const std::filesystem::path& from_dir, const std::filesystem::path& out) {
+  o.Check();
+  StagedRunFolder folder(out);
+  const std::filesystem::path& out_dir = folder.staging();
+  const auto t0 = std::chrono::steady_clock::now();
+  const SavedCloud cloud = ReadSavedCloud(from_dir);
+  track::TrackResult tr = track::LoadTrack(from_dir, video, /*full_gray=*/true);
+  std::filesystem::create_directories(out_dir);
+  // The folder can be gone on from in turn: the track and the cloud come along.
+  WriteTumTrajectory(out_dir / "keyframes.tum", tr.keyframes);
+  WriteTumTrajectory(out_dir / "trajectory.tum", tr.frames.empty() ? tr.keyframes : tr.frames);
+  for (const char* name : {"cloud.ply", "cloud_coarse.ply", "dense_summary.json"}) {
+    LinkOrCopy(from_dir / name, out_dir / name);
+  }
+  stems::MeasureInput min{&cloud.points,
+                          &cloud.coarse,
+                          cloud.depth_focal_px,
+                          &tr.camera,
+                          &tr.keyframes,
+                          &tr.keyframe_images,
+                          std::move(tr.keyframe_gray_full)};
+  stems::MeasureResult mr = stems::MeasureTrees(o.measure, std::move(min));
+  ProcessResult r;
+  r.stems = std::move(mr.trees);
+  WriteTreeOutputs(o, tr, tr.keyframe_images, video, out_dir, &r);
+  nlohmann::json& s = r.summary;
+  tr.summary["reused_from"] = std::filesystem::absolute(from_dir).string();
+  s["track"] = tr.summary;
+  s["dense"] = cloud.summary;
+  s["stems"] = mr.summary;
+  s["timing_s"] = {
+      {"stems_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()}};
+  WriteJsonAtomic(out_dir / "process_options.json", o);
+  WriteJsonAtomic(out_dir / "summary.json", s);
+  folder.Commit({{"command", "stems"},
+                 {"video", std::filesystem::absolute(video).string()},
+                 {"from", std::filesystem::absolute(from_dir).string()}});
+  return r;
+}
 
 ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& video,
                          const std::filesystem::path& out) {
@@ -134,52 +189,19 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
   if (mask_model) din.mask_model = mask_model.get();
   const dense::DenseResult dr = dense::RunDense(o.dense, din, out_dir);
   timing["dense_s"] = lap();
-  const stems::GroundGrid ground(dr.points, o.stems.search_radius_m + 2.0, 0.5);
-  stems::StemsResult sr = stems::DetectStems(o.stems, dr.points, ground, dr.depth_focal_px);
-  std::vector<stems::Stem> larger_only;
-  if (!dr.short_baseline_points.empty()) {
-    // The short-baseline points only give a second start to parts that come to nothing; the
-    // silhouettes and the bark judge it like any other.
-    std::vector<dense::CloudPoint> all = dr.points;
-    all.insert(all.end(), dr.short_baseline_points.begin(), dr.short_baseline_points.end());
-    stems::StemsResult more = stems::DetectStems(o.stems, all, ground, dr.depth_focal_px);
-    if (o.larger_cloud_only_max_rms_px > 0) {
-      // Where the cloud has no part at all, the larger cloud's stems, vetoed or not: the coarse
-      // points of a stem seen past a nearer one for a short turn often smear into its free space.
-      std::vector<stems::Stem> candidates = std::move(more.vetoed);
-      candidates.insert(candidates.end(), more.stems.begin(), more.stems.end());
-      larger_only = stems::StemsAwayFrom(candidates, o.larger_cloud_part_gap_m, sr.stems);
-      sr.larger_cloud_only = static_cast<int>(larger_only.size());
-    }
-    sr.larger_cloud_parts =
-        stems::AttachLargerCloudParts(std::move(more.stems), o.larger_cloud_part_gap_m, &sr.stems);
-  }
+  stems::MeasureInput min{
+      &dr.points,  &dr.short_baseline_points,       dr.depth_focal_px, &tr.camera, &tr.keyframes,
+      &din.images, std::move(tr.keyframe_gray_full)};
+  stems::MeasureResult mr = stems::MeasureTrees(o.measure, std::move(min));
   timing["stems_s"] = lap();
-  RefineWithTangentRays(o, tr, std::move(tr.keyframe_gray_full), din.images, &sr.stems,
-                        std::move(larger_only));
-  timing["tangent_rays_s"] = lap();
-  // Stems below the calliper threshold are not trees of the list (a fit that closed on a twig).
-  const size_t below =
-      std::erase_if(sr.stems, [&](const stems::Stem& s) { return 100 * s.dbh_m < o.min_dbh_cm; });
-  if (below > 0) spdlog::info("stems: {} below {:.0f} cm DBH left out", below, o.min_dbh_cm);
-  // tree_id counts outward (docs/output-format.md): fits move stems, and stems found late join.
-  std::ranges::stable_sort(sr.stems, stems::NearerTheCentre);
 
   ProcessResult r;
-  r.stems = sr.stems;
-  r.figures = ComputePlotFigures(r.stems, o.plot_radius_m, o.min_dbh_cm);
-  WriteTreesCsv(out_dir / "trees.csv", r.stems, o.stems.breast_height_m, o.plot_radius_m);
-  WriteStemDetails(out_dir / "stems_detail.csv", r.stems);
-  if (o.write_report) WriteProcessReport(o, tr, din.images, r, video, out_dir);
+  r.stems = std::move(mr.trees);
+  WriteTreeOutputs(o, tr, din.images, video, out_dir, &r);
   nlohmann::json& s = r.summary;
-  s["plot"] =
-      PlotSummaryJson(r.figures, static_cast<int>(r.stems.size()), o.plot_radius_m, o.min_dbh_cm);
-  for (const auto& w : s["plot"]["warnings"]) spdlog::warn("{}", w.get<std::string>());
   s["track"] = tr.summary;
   s["dense"] = dr.summary;
-  s["stems"] = sr.Summary();
-  s["stems"]["dbh_method"] = o.stems.dbh_method;
-  s["stems"]["ground_cells"] = ground.measured_cells();
+  s["stems"] = mr.summary;
   timing["total_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   s["timing_s"] = timing;
   WriteJsonAtomic(out_dir / "process_options.json", o);

@@ -32,38 +32,15 @@ TEST(PlotSummaryJson, WarnsWhenNoStemWasFound) {
   EXPECT_DOUBLE_EQ(some["stems_per_ha"].get<double>(), 63.7);
 }
 
-TEST(ProcessOptions, AOneSidedBoundBelowTheCloudIsRejected) {
+TEST(ProcessOptions, EachStagesOptionsAreChecked) {
   ProcessOptions o;
-  EXPECT_NO_THROW(o.Check());
-  o.one_sided_max_over_cloud = 0.9;  // would replace fits narrower than the cloud too
-  EXPECT_THROW(o.Check(), InputError);
-  o = ProcessOptions();
-  o.one_sided_min_cloud_radius_m = -0.01;
-  EXPECT_THROW(o.Check(), InputError);
-  o = ProcessOptions();
-  o.min_core_share = 1.5;
-  EXPECT_THROW(o.Check(), InputError);
-  o = ProcessOptions();
-  o.narrow_fit_share = -0.1;
-  EXPECT_THROW(o.Check(), InputError);
-}
-
-TEST(ProcessOptions, TheLargerCloudsSettingsAreChecked) {
-  ProcessOptions o;
-  o.larger_cloud_part_gap_m = -0.1;
-  EXPECT_EQ(CheckMessage(o),
-            "the gap within which a larger cloud's part joins a stem must not be negative");
-  o = ProcessOptions();
-  o.larger_cloud_only_max_rms_px = -1;
-  EXPECT_EQ(CheckMessage(o),
-            "the rms a larger cloud's stem's silhouettes may keep must not be negative");
-  o = ProcessOptions();
-  o.wide_fit_scale = 0.9;
+  EXPECT_EQ(CheckMessage(o), "");
+  o.measure.wide_fit_scale = 0.9;
   EXPECT_EQ(CheckMessage(o),
             "the width over the cloud's that needs the bark to line up must be at least 1");
   o = ProcessOptions();
-  o.wide_fit_min_bark_ncc = 1.5;
-  EXPECT_EQ(CheckMessage(o), "the bark correlation a wide fit needs must lie in [-1, 1]");
+  o.plot_radius_m = 0;
+  EXPECT_EQ(CheckMessage(o), "--plot-radius must be positive");
   o = ProcessOptions();
   o.dense.short_baseline_max_depth_m = 2.0;  // inside the near pairs' own range
   EXPECT_EQ(CheckMessage(o),
@@ -87,38 +64,40 @@ TEST(ProcessOptions, EveryOptionRoundTripsThroughItsFile) {
   o.track.bundle.sigma_mount_deg = 0.9;
   o.track.calibration = "/phones/a.yaml";
   o.dense.stereo.block_size = 7;
-  o.stems.dbh_method = "slice";
-  o.tangent.wide_start_scales = {1.4};
-  o.bark_depth.min_pairs = 4;
+  o.measure.stems.dbh_method = "slice";
+  o.measure.tangent.wide_start_scales = {1.4};
+  o.measure.bark_depth.min_pairs = 4;
   o.mask.mean = {0.5, 0.5, 0.5};
   o.from_track = "/runs/a";
   WriteJsonAtomic(OptionsDir() / "all.json", o);
   const ProcessOptions back = ReadOptionsJson<ProcessOptions>(OptionsDir() / "all.json");
   EXPECT_EQ(nlohmann::json(back), nlohmann::json(o));
   EXPECT_EQ(back.track.calibration, o.track.calibration);
-  EXPECT_EQ(back.tangent.wide_start_scales, o.tangent.wide_start_scales);
+  EXPECT_EQ(back.measure.tangent.wide_start_scales, o.measure.tangent.wide_start_scales);
 }
 
 TEST(ProcessOptions, AFileMayGiveSomeOptionsAndFlagsOverrideIt) {
   WriteFileAtomic(OptionsDir() / "some.json",
-                  R"({"plot_radius_m": 15, "tangent": {"min_rays": 5}, "stems": {}})");
+                  R"({"plot_radius_m": 15, "measure": {"tangent": {"min_rays": 5}, "stems": {}}})");
   const ProcessOptions from_file = ReadOptionsJson<ProcessOptions>(OptionsDir() / "some.json");
   EXPECT_EQ(from_file.plot_radius_m, 15.0);
-  EXPECT_EQ(from_file.tangent.min_rays, 5);
-  EXPECT_EQ(from_file.min_dbh_cm, ProcessOptions{}.min_dbh_cm) << "a missing key keeps its default";
+  EXPECT_EQ(from_file.measure.tangent.min_rays, 5);
+  EXPECT_EQ(from_file.measure.min_dbh_cm, ProcessOptions{}.measure.min_dbh_cm)
+      << "a missing key keeps its default";
   ProcessOptions flags;
-  flags.min_dbh_cm = 10.0;
+  flags.measure.min_dbh_cm = 10.0;
   flags.track.arm_radius_m = 0.8;
   const ProcessOptions merged = OverlayOptions(from_file, flags);
   EXPECT_EQ(merged.plot_radius_m, 15.0);
-  EXPECT_EQ(merged.tangent.min_rays, 5);
-  EXPECT_EQ(merged.min_dbh_cm, 10.0);
+  EXPECT_EQ(merged.measure.tangent.min_rays, 5);
+  EXPECT_EQ(merged.measure.min_dbh_cm, 10.0);
   EXPECT_EQ(merged.track.arm_radius_m, 0.8);
 }
 
 TEST(ProcessOptions, AnOptionsFileOfTheWrongShapeIsAnInputError) {
-  for (const char* text : {R"([1, 2])", R"({"plot_radius_m": "ten"})",
-                           R"({"tangent": {"wide_start_scales": 2}})", R"({"track": 3})", "{"}) {
+  for (const char* text :
+       {R"([1, 2])", R"({"plot_radius_m": "ten"})",
+        R"({"measure": {"tangent": {"wide_start_scales": 2}}})", R"({"track": 3})", "{"}) {
     WriteFileAtomic(OptionsDir() / "bad.json", text);
     EXPECT_THROW(ReadOptionsJson<ProcessOptions>(OptionsDir() / "bad.json"), InputError) << text;
   }

@@ -8,8 +8,9 @@
 namespace stemmap::stems {
 
 RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
-                         bool sunlit, Texture texture) {
+                         bool sunlit, Texture texture, const PinholeCamera& camera) {
   RenderedStem r;
+  r.camera = camera;
   const ValueNoise noise(7);
   for (int k = 0; k < 34; ++k) {
     const double th = (-30.0 + 2.0 * k) * M_PI / 180.0;

@@ -26,7 +26,10 @@ enum class Texture { kRegular, kIrregular, kPlainBark };
 // in front of either a plain sky or a textured far background. With `sunlit`, sun from +y lights
 // the stems' left sides (as seen looking along +x) brighter than a plain grey sky, their middles
 // darker.
+// `camera`: the images' (the 640-px default is quick to render; the pipeline's working images are
+// 960 px wide, the size the silhouette options are set for).
 RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
-                         bool sunlit = false, Texture texture = Texture::kRegular);
+                         bool sunlit = false, Texture texture = Texture::kRegular,
+                         const PinholeCamera& camera = PinholeCamera::FromHfov(640, 360, 67.0));
 
 }  // namespace stemmap::stems

@@ -1,4 +1,4 @@
-#include "stemmap/pipeline/refine.h"
+#include "stemmap/stems/refine.h"
 
 #include <gtest/gtest.h>
 
@@ -6,14 +6,14 @@
 
 #include "stemmap/stems/test_scene.h"
 
-namespace stemmap::pipeline {
+namespace stemmap::stems {
 namespace {
 
 // A 30 cm stem 5 m away as the cloud saw it, and a silhouette fit that agrees to a few mm in
 // five views with both sides.
 struct Case {
-  stems::Stem stem;
-  stems::TangentFit fit;
+  Stem stem;
+  TangentFit fit;
   double px_m = 5.0 / 1400.0;
   Case() {
     stem.centre_xy = {5.0, 0.0};
@@ -26,8 +26,8 @@ struct Case {
   }
 };
 
-stems::Stem Fitted(double x, double y, double dbh_m, double shift_m) {
-  stems::Stem s;
+Stem Fitted(double x, double y, double dbh_m, double shift_m) {
+  Stem s;
   s.centre_xy = {x, y};
   s.dbh_m = dbh_m;
   s.fit_shift_m = shift_m;
@@ -36,7 +36,7 @@ stems::Stem Fitted(double x, double y, double dbh_m, double shift_m) {
 
 TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
   std::vector<Eigen::Vector3d> occluders = {{1, 0, 0.1}, {5, 0, 0.3}, {9, 0, 0.2}};
-  std::vector<stems::Stem> fitted(2);
+  std::vector<Stem> fitted(2);
   fitted[0].centre_xy = {5.1, 0.2};
   fitted[0].dbh_m = 0.5;          // the cloud's
   fitted[0].dbh_tangent_m = 0.4;  // the silhouettes'
@@ -55,7 +55,7 @@ TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
 
 // natural-5's smear: a 14.4-cm stem at 5.7 m, and a part 0.7 m behind it on nearly its bearing.
 TEST(InShadowOfNearerStem, APointStraightBehindAListedStem) {
-  const std::vector<stems::Stem> nearer = {Fitted(-2.70, 5.04, 0.144, 0.0)};
+  const std::vector<Stem> nearer = {Fitted(-2.70, 5.04, 0.144, 0.0)};
   EXPECT_TRUE(InShadowOfNearerStem(nearer, {-2.96, 5.66}));
   // Beside its width seen from the centre, in front of it, or within it: no shadow.
   EXPECT_FALSE(InShadowOfNearerStem(nearer, {-2.52, 5.83}));
@@ -67,9 +67,9 @@ TEST(InShadowOfNearerStem, APointStraightBehindAListedStem) {
 // What may stand straight behind a nearer stem: both sides in three views on one circle, or
 // many silhouettes (managed-2's 37.7-cm stem: 26, both sides in two views) to within a pixel.
 TEST(StandsOnItsOwnSilhouettes, TwoSidedViewsOrManyTightSilhouettes) {
-  const stems::TangentOptions o;
+  const TangentOptions o;
   const double px_m = 0.006;
-  stems::TangentFit f;
+  TangentFit f;
   f.ok = true;
   f.rays = 26;
   f.two_sided_views = 2;
@@ -91,7 +91,7 @@ TEST(StandsOnItsOwnSilhouettes, TwoSidedViewsOrManyTightSilhouettes) {
 TEST(HasSharpSilhouettes, BothSidesInThreeViewsOnOneCircleToHalfAPixel) {
   // natural-2's 11.4-cm stem 8.5 m out behind a 24.3-cm one: 10 rays, 4 views two-sided, 1.6 mm.
   const double px_m = 0.0058;
-  stems::TangentFit f;
+  TangentFit f;
   f.ok = true;
   f.rays = 10;
   f.two_sided_views = 4;
@@ -109,11 +109,11 @@ TEST(HasSharpSilhouettes, BothSidesInThreeViewsOnOneCircleToHalfAPixel) {
 
 TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
   // natural-3's 4.4-cm sapling: its 8.8-cm part, a 2.2-times start closed on 19.8 cm.
-  const ProcessOptions o;
-  stems::TangentFit f;
+  const MeasureOptions o;
+  TangentFit f;
   f.ok = true;
   f.radius_m = 0.099;
-  stems::BarkDepth bark;
+  BarkDepth bark;
   bark.pairs = 38;
   bark.peak_ncc = 0.38;
   EXPECT_FALSE(WideFitLinesUpOnBark(o, f, bark, 0.044));
@@ -126,10 +126,10 @@ TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
 }
 
 TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
-  const ProcessOptions o;
-  std::vector<stems::Stem> kept = {Fitted(-4.44, 1.24, 0.243, 0.0)};
+  const MeasureOptions o;
+  std::vector<Stem> kept = {Fitted(-4.44, 1.24, 0.243, 0.0)};
   std::vector<Eigen::Vector3d> occluders = {{-4.44, 1.24, 0.12}};
-  const std::vector<stems::Stem> candidates = {
+  const std::vector<Stem> candidates = {
       Fitted(-4.40, 1.40, 0.1, 0.0),    // its circle touches the listed stem's: not tried
       Fitted(-8.11, 2.18, 0.107, 0.0),  // sharp: listed
       Fitted(-8.10, 2.20, 0.148, 0.0),  // now on the stem just listed: not tried
@@ -138,7 +138,7 @@ TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
   int tried = 0;
   const int added = AddLargerCloudOnlyStems(
       o, candidates,
-      [&](stems::Stem s) {
+      [&](Stem s) {
         ++tried;
         const bool sharp = s.centre_xy.x() < 0 || s.centre_xy.y() > 0;
         const bool use = s.centre_xy.y() < 2.5;
@@ -162,13 +162,13 @@ TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
 TEST(BarkConfirmsCloud, TwoSidedSilhouettesAndBarkOnTheCloudsCircle) {
   // natural-5's 16.4-cm stem in front of a 35.8-cm one 2 m behind it: the fit settled on the far
   // stem, where the bark did not line up; on the cloud's circle it does, 6 cm nearer.
-  stems::Stem part;
-  stems::TangentFit f;
+  Stem part;
+  TangentFit f;
   f.ok = false;
   f.rays = 49;
   f.two_sided_views = 20;
   f.tried_views = 49;
-  stems::BarkDepth bark;
+  BarkDepth bark;
   bark.ok = true;
   bark.shift_m = -0.056;
   bark.peak_ncc = 0.95;
@@ -177,7 +177,7 @@ TEST(BarkConfirmsCloud, TwoSidedSilhouettesAndBarkOnTheCloudsCircle) {
   // a weakly supported part, bark that lines up nowhere or only at the end of its search.
   struct Case {
     const char* what;
-    std::function<void(stems::Stem*, stems::TangentFit*, stems::BarkDepth*)> change;
+    std::function<void(Stem*, TangentFit*, BarkDepth*)> change;
   };
   const std::vector<Case> cases = {
       {"fit ok", [](auto*, auto* fit, auto*) { fit->ok = true; }},
@@ -188,9 +188,9 @@ TEST(BarkConfirmsCloud, TwoSidedSilhouettesAndBarkOnTheCloudsCircle) {
       {"no bark", [](auto*, auto*, auto* b) { b->ok = false; }},
       {"bark at the end", [](auto*, auto*, auto* b) { b->at_search_end = true; }}};
   for (const Case& c : cases) {
-    stems::Stem p2 = part;
-    stems::TangentFit f2 = f;
-    stems::BarkDepth b2 = bark;
+    Stem p2 = part;
+    TangentFit f2 = f;
+    BarkDepth b2 = bark;
     c.change(&p2, &f2, &b2);
     EXPECT_FALSE(BarkConfirmsCloud(p2, f2, b2)) << c.what;
   }
@@ -199,9 +199,8 @@ TEST(BarkConfirmsCloud, TwoSidedSilhouettesAndBarkOnTheCloudsCircle) {
 TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
   // A 27.8-cm stem, and a 17.8-cm fit that moved 0.47 m from its points to touch it; a third
   // stem 0.46 m from the first, and a far one that moved as much, stay.
-  std::vector<stems::Stem> stems = {
-      Fitted(4.42, 3.82, 0.278, 0.01), Fitted(4.24, 3.97, 0.178, 0.47),
-      Fitted(4.42, 4.12 + 0.16, 0.10, 0.02), Fitted(-6.0, 1.0, 0.30, 0.47)};
+  std::vector<Stem> stems = {Fitted(4.42, 3.82, 0.278, 0.01), Fitted(4.24, 3.97, 0.178, 0.47),
+                             Fitted(4.42, 4.12 + 0.16, 0.10, 0.02), Fitted(-6.0, 1.0, 0.30, 0.47)};
   EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
   ASSERT_EQ(stems.size(), 3u);
   EXPECT_DOUBLE_EQ(stems[0].dbh_m, 0.278);
@@ -210,7 +209,7 @@ TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
 }
 
 TEST(DropStemsFittedTwice, OfTwoEquallyMovedStemsOneStays) {
-  std::vector<stems::Stem> stems = {Fitted(5.0, 0.0, 0.30, 0.0), Fitted(5.0, 0.30, 0.30, 0.0)};
+  std::vector<Stem> stems = {Fitted(5.0, 0.0, 0.30, 0.0), Fitted(5.0, 0.30, 0.30, 0.0)};
   EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
   EXPECT_EQ(stems.size(), 1u);
 }
@@ -219,7 +218,7 @@ TEST(DropStemsFittedTwice, OfTwoEquallyMovedStemsOneStays) {
 // two dense cores; the part's silhouettes fit a 22.6-cm stem between them. `fitting` says which
 // cores fit cleanly on their own.
 struct InLine {
-  stems::Stem part;
+  Stem part;
   std::vector<Eigen::Vector2d> fitting;
   int refined = 0;
   InLine() {
@@ -227,7 +226,7 @@ struct InLine {
     part.dbh_slice_m = 0.43;
     part.alternatives = {Fitted(8.2, -0.1, 0.17, 0.0), Fitted(9.1, -0.5, 0.13, 0.0)};
   }
-  RefinedStem Refine(stems::Stem s) {
+  RefinedStem Refine(Stem s) {
     ++refined;
     const bool is_part = (s.centre_xy - part.centre_xy).norm() < 1e-9;
     const bool fits = is_part || std::ranges::any_of(fitting, [&](const Eigen::Vector2d& c) {
@@ -244,9 +243,9 @@ struct InLine {
 TEST(ResolvePart, AFitFarNarrowerThanASmearedPartGivesWayToItsCores) {
   InLine c;
   c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
-  std::vector<stems::Stem> kept;
+  std::vector<Stem> kept;
   const PartOutcome out = ResolvePart(
-      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+      {}, c.part, [&](Stem s) { return c.Refine(std::move(s)); }, &kept);
   ASSERT_EQ(kept.size(), 2u);
   EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.17);
   EXPECT_DOUBLE_EQ(kept[1].dbh_m, 0.13);
@@ -258,12 +257,12 @@ TEST(ResolvePart, APartThatComesToNothingGivesWayToTheLargerCloudsClean) {
   // A sliver of a stem the silhouettes drop; the larger cloud's part of it fits cleanly, or not.
   // On its cloud only where the silhouettes agree with the cloud's width.
   for (const auto& [clean, agrees] : {std::pair{true, true}, {false, true}, {true, false}}) {
-    stems::Stem part = Fitted(4.99, -4.49, 0.188, 0.0);
+    Stem part = Fitted(4.99, -4.49, 0.188, 0.0);
     part.larger_cloud_part = {Fitted(4.98, -4.58, 0.308, 0.0)};
-    std::vector<stems::Stem> kept;
+    std::vector<Stem> kept;
     const PartOutcome out = ResolvePart(
         {}, part,
-        [&](stems::Stem s) {
+        [&](Stem s) {
           const bool larger = s.dbh_m > 0.3;
           return RefinedStem{larger ? SilhouetteVerdict::kKeepCloud : SilhouetteVerdict::kDrop,
                              std::move(s), larger && clean, false, larger && agrees};
@@ -284,9 +283,9 @@ TEST(ResolvePart, APartThatComesToNothingGivesWayToTheLargerCloudsClean) {
 TEST(ResolvePart, OneCoreAloneDoesNotReplaceThePartsFit) {
   InLine c;
   c.fitting = {{8.2, -0.1}};
-  std::vector<stems::Stem> kept;
+  std::vector<Stem> kept;
   const PartOutcome out = ResolvePart(
-      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+      {}, c.part, [&](Stem s) { return c.Refine(std::move(s)); }, &kept);
   ASSERT_EQ(kept.size(), 1u);
   EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.226);
   EXPECT_EQ(out.fitted, 1);
@@ -299,9 +298,9 @@ TEST(ResolvePart, OneWholeCoreReplacesAPartialFitOfItsPart) {
   InLine c;
   c.fitting = {{8.2, -0.1}};
   c.part_whole = false;
-  std::vector<stems::Stem> kept;
+  std::vector<Stem> kept;
   const PartOutcome out = ResolvePart(
-      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+      {}, c.part, [&](Stem s) { return c.Refine(std::move(s)); }, &kept);
   ASSERT_EQ(kept.size(), 1u);
   EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.17);
   EXPECT_EQ(out.fitted, 1);
@@ -311,16 +310,16 @@ TEST(ResolvePart, OneWholeCoreReplacesAPartialFitOfItsPart) {
 // Two cores of one stem overlap: the one with both sides in most of its views stands, though it
 // comes second.
 TEST(ResolvePart, OfOverlappingCoresTheWholeOneStands) {
-  stems::Stem part = Fitted(8.6, -0.2, 0.0, 0.0);
+  Stem part = Fitted(8.6, -0.2, 0.0, 0.0);
   part.dbh_slice_m = 0.43;
   part.alternatives = {Fitted(8.5, -0.2, 0.10, 0.0), Fitted(8.55, -0.15, 0.19, 0.0)};
-  auto refine = [&](stems::Stem s) {
+  auto refine = [&](Stem s) {
     const bool is_part = s.dbh_m == 0.0;
     if (is_part) s.dbh_m = s.dbh_tangent_m = 0.14;
     const bool whole = s.dbh_m == 0.19;
     return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, whole};
   };
-  std::vector<stems::Stem> kept;
+  std::vector<Stem> kept;
   const PartOutcome out = ResolvePart({}, part, refine, &kept);
   ASSERT_EQ(kept.size(), 1u);
   EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.19);
@@ -331,9 +330,9 @@ TEST(ResolvePart, AFitNearThePartsWidthKeepsThePartWithoutTryingItsCores) {
   InLine c;
   c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
   c.part_fit_dbh_m = 0.40;
-  std::vector<stems::Stem> kept;
+  std::vector<Stem> kept;
   ResolvePart(
-      {}, c.part, [&](stems::Stem s) { return c.Refine(std::move(s)); }, &kept);
+      {}, c.part, [&](Stem s) { return c.Refine(std::move(s)); }, &kept);
   ASSERT_EQ(kept.size(), 1u);
   EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.40);
   EXPECT_EQ(c.refined, 1);
@@ -355,7 +354,7 @@ TEST(JudgeSilhouetteFit, APartWithoutSilhouettesIsDroppedUnlessUnconfirmedPartsA
   Case c;
   c.fit.ok = false;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
-  ProcessOptions keep;
+  MeasureOptions keep;
   keep.require_silhouette = false;
   EXPECT_EQ(JudgeSilhouetteFit(keep, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
 }
@@ -377,7 +376,7 @@ TEST(JudgeSilhouetteFit, NarrowerSilhouettesOnBothSidesInMostViewsOutrankTheClou
 TEST(JudgeSilhouetteFit, RequiringSilhouettesDropsWhatNoneConfirms) {
   Case c;
   c.fit.ok = false;
-  ProcessOptions o;
+  MeasureOptions o;
   o.require_silhouette = true;
   EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
   c.fit.ok = true;  // a confirmed stem stays, required or not
@@ -454,7 +453,7 @@ TEST(JudgeSilhouetteFit, WiderSilhouettesUpToALittleBeyondTheWidestStart) {
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
   c.fit.radius_m = 2.9 * 0.15;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
-  ProcessOptions o;
+  MeasureOptions o;
   o.tangent.wide_start_scales = {1.6};  // a narrower widest start narrows the bound
   c.fit.radius_m = 2.6 * 0.15;
   EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
@@ -465,24 +464,23 @@ TEST(JudgeSilhouetteFit, WiderSilhouettesUpToALittleBeyondTheWidestStart) {
 // distance from the bark.
 TEST(CheckFitOnBark, AFitAcrossTwoStemsFails) {
   const Eigen::Vector3d a(6.0, 0.0, 0.1), b(6.0, 0.9, 0.1);
-  const stems::RenderedStem scene =
-      stems::RenderStems({a, b}, true, false, stems::Texture::kIrregular);
-  const stems::TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
-  stems::TangentFit across;
+  const RenderedStem scene = RenderStems({a, b}, true, false, Texture::kIrregular);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  TangentFit across;
   across.ok = true;
   across.centre = {6.0, 0.45};
   across.radius_m = 0.55;
-  const stems::BarkDepthOptions o;
-  const stems::TangentOptions t;
-  stems::TangentFit fit = across;
-  const stems::BarkDepth no_bark = CheckFitOnBark(o, t, views, 1.37, &fit);
+  const BarkDepthOptions o;
+  const TangentOptions t;
+  TangentFit fit = across;
+  const BarkDepth no_bark = CheckFitOnBark(o, t, views, 1.37, &fit);
   EXPECT_FALSE(fit.ok);
   EXPECT_GE(no_bark.pairs, o.min_pairs);
   EXPECT_LT(no_bark.peak_ncc, o.min_surface_ncc);
   fit = across;
   fit.centre = a.head<2>();
   fit.radius_m = a.z();
-  const stems::BarkDepth bark = CheckFitOnBark(o, t, views, 1.37, &fit);
+  const BarkDepth bark = CheckFitOnBark(o, t, views, 1.37, &fit);
   EXPECT_TRUE(fit.ok);
   ASSERT_TRUE(bark.ok);
   EXPECT_GT(bark.peak_ncc, o.min_peak_ncc);
@@ -490,4 +488,4 @@ TEST(CheckFitOnBark, AFitAcrossTwoStemsFails) {
 }
 
 }  // namespace
-}  // namespace stemmap::pipeline
+}  // namespace stemmap::stems

@@ -1,4 +1,4 @@
-#include "stemmap/pipeline/refine.h"
+#include "stemmap/stems/refine.h"
 
 #include <spdlog/spdlog.h>
 
@@ -9,18 +9,18 @@
 #include <string>
 #include <utility>
 
-namespace stemmap::pipeline {
+namespace stemmap::stems {
 
 namespace {
 
 // The cloud's radius of a stem: its slice's width, else the circle fitted to it.
-double CloudRadius(const stems::Stem& s) {
+double CloudRadius(const Stem& s) {
   return 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
 }
 
 }  // namespace
 
-int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems) {
+int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems) {
   std::vector<size_t> order(stems->size());
   std::iota(order.begin(), order.end(), 0);
   // The farthest-moved fit is judged first; ties keep the list's order.
@@ -29,16 +29,16 @@ int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems)
   });
   std::vector<char> drop(stems->size(), 0);
   for (size_t i : order) {
-    const stems::Stem& a = (*stems)[i];
+    const Stem& a = (*stems)[i];
     for (size_t j = 0; j < stems->size() && !drop[i]; ++j) {
-      const stems::Stem& b = (*stems)[j];
+      const Stem& b = (*stems)[j];
       if (j == i || drop[j] || b.fit_shift_m > a.fit_shift_m) continue;
       const double gap = (a.centre_xy - b.centre_xy).norm() - 0.5 * (a.dbh_m + b.dbh_m);
       if (gap < min_bark_gap_m) drop[i] = 1;
     }
   }
   int dropped = 0;
-  std::vector<stems::Stem> kept;
+  std::vector<Stem> kept;
   for (size_t i = 0; i < stems->size(); ++i) {
     if (drop[i]) {
       ++dropped;
@@ -52,8 +52,8 @@ int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems)
   return dropped;
 }
 
-SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& s,
-                                     const stems::TangentFit& f, double px_m) {
+SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, const TangentFit& f,
+                                     double px_m) {
   // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
   // neighbour): keep the cloud's estimate and say so. A stem partly hidden from the stereo
   // pairs is wider than its points: silhouettes on both sides in several views that agree to
@@ -99,12 +99,11 @@ SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem&
   return SilhouetteVerdict::kKeepCloud;
 }
 
-PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
-                        const std::function<RefinedStem(stems::Stem)>& refine,
-                        std::vector<stems::Stem>* kept) {
+PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
+                        const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept) {
   PartOutcome out;
-  std::vector<stems::Stem> cores = std::exchange(part.alternatives, {});
-  std::vector<stems::Stem> larger = std::exchange(part.larger_cloud_part, {});
+  std::vector<Stem> cores = std::exchange(part.alternatives, {});
+  std::vector<Stem> larger = std::exchange(part.larger_cloud_part, {});
   const double part_dbh_m = 2 * CloudRadius(part);
   auto [verdict, s, clean, whole, agrees, sharp] = refine(std::move(part));
   // A fit far narrower than a smeared part with several cores may be one of stems standing
@@ -125,14 +124,14 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
       verdict == SilhouetteVerdict::kKeepCloud ? o.min_core_share * s.dbh_m : 0.0;
   // Cores that overlap are one stem: the one with both sides in most views stands first.
   std::vector<RefinedStem> refined;
-  for (stems::Stem& core : cores) refined.push_back(refine(std::move(core)));
+  for (Stem& core : cores) refined.push_back(refine(std::move(core)));
   std::ranges::stable_sort(
       refined, [](const RefinedStem& a, const RefinedStem& b) { return a.whole && !b.whole; });
   int whole_cores = 0;
   for (RefinedStem& r : refined) {
-    stems::Stem& c = r.stem;
+    Stem& c = r.stem;
     if (r.verdict != SilhouetteVerdict::kUse || !r.clean || c.dbh_m < min_core_dbh_m) continue;
-    const bool overlaps = std::ranges::any_of(*kept, [&](const stems::Stem& k) {
+    const bool overlaps = std::ranges::any_of(*kept, [&](const Stem& k) {
       return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
     });
     if (!overlaps) {
@@ -181,10 +180,10 @@ PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
   return out;
 }
 
-void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
+void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part,
                           std::vector<Eigen::Vector3d>* occluders) {
   for (size_t k = 0; k < fitted.size(); ++k) {
-    const stems::Stem& s = fitted[k];
+    const Stem& s = fitted[k];
     const Eigen::Vector3d circle(s.centre_xy.x(), s.centre_xy.y(),
                                  0.5 * (s.dbh_tangent_m > 0 ? s.dbh_tangent_m : s.dbh_m));
     if (k == 0) {
@@ -195,13 +194,12 @@ void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
   }
 }
 
-int AddLargerCloudOnlyStems(const ProcessOptions& o, std::vector<stems::Stem> candidates,
-                            const std::function<RefinedStem(stems::Stem)>& refine,
-                            std::vector<stems::Stem>* kept,
+int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidates,
+                            const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept,
                             std::vector<Eigen::Vector3d>* occluders) {
   int added = 0;
-  for (stems::Stem& c : candidates) {
-    const bool taken = std::ranges::any_of(*kept, [&](const stems::Stem& k) {
+  for (Stem& c : candidates) {
+    const bool taken = std::ranges::any_of(*kept, [&](const Stem& k) {
       return (k.centre_xy - c.centre_xy).norm() - 0.5 * (k.dbh_m + c.dbh_m) <
              o.larger_cloud_part_gap_m;
     });
@@ -218,12 +216,11 @@ int AddLargerCloudOnlyStems(const ProcessOptions& o, std::vector<stems::Stem> ca
   return added;
 }
 
-bool HasSharpSilhouettes(const stems::TangentFit& f, double max_rms_px, double px_m) {
+bool HasSharpSilhouettes(const TangentFit& f, double max_rms_px, double px_m) {
   return f.ok && f.two_sided_views >= 3 && f.rms_m < max_rms_px * px_m;
 }
 
-bool StandsOnItsOwnSilhouettes(const stems::TangentOptions& o, const stems::TangentFit& f,
-                               double px_m) {
+bool StandsOnItsOwnSilhouettes(const TangentOptions& o, const TangentFit& f, double px_m) {
   if (!f.ok) return false;
   // Both sides in a few views (the nearer stem hides the rest) on one circle to a couple of
   // pixels, or many silhouettes on one circle to about a pixel: the nearer stem's edges, seen
@@ -232,9 +229,9 @@ bool StandsOnItsOwnSilhouettes(const stems::TangentOptions& o, const stems::Tang
          (f.rays >= 2 * o.min_rays && f.rms_m < o.narrow_max_rms_px * px_m);
 }
 
-bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vector2d& centre) {
+bool InShadowOfNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& centre) {
   const double d = centre.norm();
-  for (const stems::Stem& k : nearer) {
+  for (const Stem& k : nearer) {
     const double dk = k.centre_xy.norm(), rk = 0.5 * k.dbh_m;
     if (dk + rk >= d || dk <= rk) continue;
     const double apart = std::abs(std::remainder(
@@ -245,20 +242,17 @@ bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vect
   return false;
 }
 
-bool BarkConfirmsCloud(const stems::Stem& part, const stems::TangentFit& fit,
-                       const stems::BarkDepth& cloud_bark) {
+bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth& cloud_bark) {
   const bool two_sided_often =
       fit.two_sided_views >= std::max(3, fit.tried_views / 4) && fit.rays > 0;
   return !fit.ok && !part.weak_support && two_sided_often && cloud_bark.ok &&
          !cloud_bark.at_search_end;
 }
 
-stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::TangentOptions& t,
-                                const stems::TangentViews& views, double breast_z,
-                                stems::TangentFit* fit) {
+BarkDepth CheckFitOnBark(const BarkDepthOptions& o, const TangentOptions& t,
+                         const TangentViews& views, double breast_z, TangentFit* fit) {
   if (!fit->ok) return {};
-  const stems::BarkDepth bark =
-      stems::MeasureBarkDepth(o, t, views, fit->centre, fit->radius_m, breast_z);
+  const BarkDepth bark = MeasureBarkDepth(o, t, views, fit->centre, fit->radius_m, breast_z);
   if (bark.pairs >= o.min_pairs && (bark.peak_ncc < o.min_surface_ncc || bark.at_search_end)) {
     // Views warped through the circle do not line up within reach of it: its inside is no one
     // stem's bark (two stems and the gap between them, a shrub, a stem and what lies behind it),
@@ -271,48 +265,48 @@ stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::T
   return bark;
 }
 
-bool WideFitLinesUpOnBark(const ProcessOptions& o, const stems::TangentFit& fit,
-                          const stems::BarkDepth& bark, double cloud_radius_m) {
+bool WideFitLinesUpOnBark(const MeasureOptions& o, const TangentFit& fit, const BarkDepth& bark,
+                          double cloud_radius_m) {
   if (!(fit.radius_m > o.wide_fit_scale * cloud_radius_m)) return true;
   return bark.pairs >= o.bark_depth.min_pairs && bark.peak_ncc >= o.wide_fit_min_bark_ncc;
 }
 
-void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
+void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_camera,
+                           const std::vector<StampedPose>& keyframes,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
-                           std::vector<stems::Stem>* stems,
-                           std::vector<stems::Stem> larger_cloud_only) {
+                           std::vector<Stem>* stems, std::vector<Stem> larger_cloud_only) {
   // Silhouettes at the video's own resolution where the front end kept it, else the working one.
   std::vector<cv::Mat> gray = std::move(gray_full);
-  PinholeCamera camera = tr.camera;
+  PinholeCamera camera = bgr_camera;
   if (!gray.empty() && !gray[0].empty()) {
-    camera = tr.camera.Scaled(static_cast<double>(gray[0].cols) / tr.camera.width);
+    camera = bgr_camera.Scaled(static_cast<double>(gray[0].cols) / bgr_camera.width);
   } else {
     gray.assign(bgr.size(), cv::Mat());
     for (size_t k = 0; k < bgr.size(); ++k) {
       if (!bgr[k].empty()) cv::cvtColor(bgr[k], gray[k], cv::COLOR_BGR2GRAY);
     }
   }
-  stems::PrepareTangentImages(o.tangent, &gray);
+  PrepareTangentImages(o.tangent, &gray);
   std::vector<Eigen::Vector3d> occluders;
-  for (const stems::Stem& s : *stems) {
+  for (const Stem& s : *stems) {
     occluders.emplace_back(s.centre_xy.x(), s.centre_xy.y(), 0.5 * s.dbh_m);
   }
-  const stems::TangentViews views{&camera, &tr.keyframes, &gray, &occluders};
-  const stems::TangentOptions topt =
-      o.tangent.ForImageScale(static_cast<double>(camera.width) / tr.camera.width);
-  std::vector<stems::Stem> kept;  // nearest first
+  const TangentViews views{&camera, &keyframes, &gray, &occluders};
+  const TangentOptions topt =
+      o.tangent.ForImageScale(static_cast<double>(camera.width) / bgr_camera.width);
+  std::vector<Stem> kept;  // nearest first
   // The silhouettes' verdict on one stem, and the stem as then reported.
-  auto refine = [&](stems::Stem s) {
+  auto refine = [&](Stem s) {
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
     const double r0 = CloudRadius(s);
-    auto on_bark = [&](const stems::TangentFit& candidate) {
-      stems::TangentFit copy = candidate;
+    auto on_bark = [&](const TangentFit& candidate) {
+      TangentFit copy = candidate;
       CheckFitOnBark(o.bark_depth, topt, views, breast_z, &copy);
       return copy.ok;
     };
-    stems::TangentFit f = stems::FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark);
+    TangentFit f = FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark);
     const double px_m = s.centre_xy.norm() / camera.fx;
-    const stems::BarkDepth bark = CheckFitOnBark(o.bark_depth, topt, views, breast_z, &f);
+    const BarkDepth bark = CheckFitOnBark(o.bark_depth, topt, views, breast_z, &f);
     if (f.ok && !WideFitLinesUpOnBark(o, f, bark, r0)) {
       spdlog::debug(
           "stems: ({:.2f}, {:.2f}) fit r {:.3f} over r0 {:.3f}: its bark does not show it "
@@ -327,8 +321,8 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
         f.tried_views, 1000 * f.rms_m, f.centre.x(), f.centre.y());
     SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m);
     if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
-      const stems::BarkDepth cloud_bark =
-          stems::MeasureBarkDepth(o.bark_depth, topt, views, s.centre_xy, r0, breast_z);
+      const BarkDepth cloud_bark =
+          MeasureBarkDepth(o.bark_depth, topt, views, s.centre_xy, r0, breast_z);
       if (BarkConfirmsCloud(s, f, cloud_bark)) {
         spdlog::debug(
             "stems: ({:.2f}, {:.2f}) kept on its cloud: the bark lines up {:+.3f} m off it",
@@ -411,4 +405,4 @@ void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr
   *stems = std::move(kept);
 }
 
-}  // namespace stemmap::pipeline
+}  // namespace stemmap::stems

@@ -8,13 +8,14 @@
 #include <span>
 #include <vector>
 
-#include "stemmap/pipeline/process.h"
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
 #include "stemmap/stems/bark_depth.h"
+#include "stemmap/stems/measure.h"
 #include "stemmap/stems/stems.h"
 #include "stemmap/stems/tangent.h"
-#include "stemmap/track/track.h"
 
-namespace stemmap::pipeline {
+namespace stemmap::stems {
 
 // What a silhouette fit does to a stem found in the cloud.
 enum class SilhouetteVerdict {
@@ -23,25 +24,24 @@ enum class SilhouetteVerdict {
   kDrop,       // implausible for a part that needed confirming: not a stem
 };
 // `px_m` is one pixel's footprint at the stem's distance.
-SilhouetteVerdict JudgeSilhouetteFit(const ProcessOptions& o, const stems::Stem& stem,
-                                     const stems::TangentFit& fit, double px_m);
+SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& stem,
+                                     const TangentFit& fit, double px_m);
 
 // Whether a part whose silhouette fit failed is a stem all the same, kept on its cloud: its
 // silhouettes were found on both sides in a quarter of the views tried (a trunk's two edges; a
 // shrub or sapling seldom shows them so), it was not weakly supported, and the views warped
 // through its own cloud circle line up (`cloud_bark` ok and not at the end of its search).
-bool BarkConfirmsCloud(const stems::Stem& part, const stems::TangentFit& fit,
-                       const stems::BarkDepth& cloud_bark);
+bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth& cloud_bark);
 
-// Drops the stems whose bark comes within `min_bark_gap_m` of another's (ProcessOptions), the
+// Drops the stems whose bark comes within `min_bark_gap_m` of another's (MeasureOptions), the
 // one whose fit moved farther from its points (Stem::fit_shift_m) first. Returns how many.
-int DropStemsFittedTwice(double min_bark_gap_m, std::vector<stems::Stem>* stems);
+int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems);
 
 // A stem as its silhouettes judged it; `clean`: both sides in a quarter of its views, on one
 // circle to a couple of pixels; `whole`: both sides in at least half of them.
 struct RefinedStem {
   SilhouetteVerdict verdict = SilhouetteVerdict::kDrop;
-  stems::Stem stem;
+  Stem stem;
   bool clean = false;
   bool whole = false;
   // Whether the silhouettes' circle agrees with the cloud's width (within a fifth of it).
@@ -56,59 +56,55 @@ struct PartOutcome {
 };
 // What one part of the cloud becomes, appended to `kept`: the stem its silhouettes fit, the stems
 // its cores make, the stem of its cloud, or nothing. `refine` judges one stem by its silhouettes.
-PartOutcome ResolvePart(const ProcessOptions& o, stems::Stem part,
-                        const std::function<RefinedStem(stems::Stem)>& refine,
-                        std::vector<stems::Stem>* kept);
+PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
+                        const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept);
 
 // The stems that one part of the cloud became (`fitted`) replace that part's circle (x, y,
 // radius) among the occluders that farther stems' edge searches stop at; a part that became
 // nothing keeps its cloud circle.
-void PlaceFittedOccluders(std::span<const stems::Stem> fitted, size_t part,
+void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part,
                           std::vector<Eigen::Vector3d>* occluders);
 
 // The larger cloud's stems alone (`candidates`, nearest first), each tried where no stem of
-// `kept` stands within ProcessOptions::larger_cloud_part_gap_m of it: listed (flagged
+// `kept` stands within MeasureOptions::larger_cloud_part_gap_m of it: listed (flagged
 // silhouette_only, and added to the occluders) when `refine` uses its fit and finds it sharp.
 // Returns how many were listed.
-int AddLargerCloudOnlyStems(const ProcessOptions& o, std::vector<stems::Stem> candidates,
-                            const std::function<RefinedStem(stems::Stem)>& refine,
-                            std::vector<stems::Stem>* kept,
+int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidates,
+                            const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept,
                             std::vector<Eigen::Vector3d>* occluders);
 
 // Both silhouettes in at least three views, on one circle to under max_rms_px pixels rms
 // (`px_m`: one pixel's footprint at the stem).
-bool HasSharpSilhouettes(const stems::TangentFit& fit, double max_rms_px, double px_m);
+bool HasSharpSilhouettes(const TangentFit& fit, double max_rms_px, double px_m);
 
 // Whether `centre` (plot frame) lies straight behind one of the `nearer` stems seen from the plot
 // centre: farther than its far side and within its angular width.
-bool InShadowOfNearerStem(std::span<const stems::Stem> nearer, const Eigen::Vector2d& centre);
+bool InShadowOfNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& centre);
 
 // Whether a fit rests on silhouettes of its stem's own, not on a nearer stem's edges (`px_m`: one
 // pixel's footprint at the stem).
-bool StandsOnItsOwnSilhouettes(const stems::TangentOptions& o, const stems::TangentFit& fit,
-                               double px_m);
+bool StandsOnItsOwnSilhouettes(const TangentOptions& o, const TangentFit& fit, double px_m);
 
 // The tangent fit checked on the bark: its distance from the bark (returned), and a fit whose bark
 // lines up at no distance (correlation under min_surface_ncc over enough pairs) or best at the end
 // of the search (beyond it, likely) fails.
-stems::BarkDepth CheckFitOnBark(const stems::BarkDepthOptions& o, const stems::TangentOptions& t,
-                                const stems::TangentViews& views, double breast_z,
-                                stems::TangentFit* fit);
+BarkDepth CheckFitOnBark(const BarkDepthOptions& o, const TangentOptions& t,
+                         const TangentViews& views, double breast_z, TangentFit* fit);
 
 // Whether a fit has the bark to show for its width: true unless it is over
-// ProcessOptions::wide_fit_scale times `cloud_radius_m` and its bark lines up to under
+// MeasureOptions::wide_fit_scale times `cloud_radius_m` and its bark lines up to under
 // wide_fit_min_bark_ncc, or over too few pairs to tell.
-bool WideFitLinesUpOnBark(const ProcessOptions& o, const stems::TangentFit& fit,
-                          const stems::BarkDepth& bark, double cloud_radius_m);
+bool WideFitLinesUpOnBark(const MeasureOptions& o, const TangentFit& fit, const BarkDepth& bark,
+                          double cloud_radius_m);
 
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
 // method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution
 // (blurred in place), or empty to use `bgr` at the working resolution. `larger_cloud_only`
 // (nearest first) are tried after them where no listed stem stands, and listed on sharp
-// silhouettes (ProcessOptions::larger_cloud_only_max_rms_px), flagged silhouette_only.
-void RefineWithTangentRays(const ProcessOptions& o, const track::TrackResult& tr,
+// silhouettes (MeasureOptions::larger_cloud_only_max_rms_px), flagged silhouette_only.
+void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_camera,
+                           const std::vector<StampedPose>& keyframes,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
-                           std::vector<stems::Stem>* stems,
-                           std::vector<stems::Stem> larger_cloud_only = {});
+                           std::vector<Stem>* stems, std::vector<Stem> larger_cloud_only = {});
 
-}  // namespace stemmap::pipeline
+}  // namespace stemmap::stems

@@ -1,0 +1,94 @@
+#include "stemmap/stems/measure.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <utility>
+
+#include "stemmap/core/error.h"
+#include "stemmap/stems/ground.h"
+#include "stemmap/stems/refine.h"
+
+namespace stemmap::stems {
+
+void MeasureOptions::Check() const {
+  stems.Check();
+  bark_depth.Check();
+  if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
+  if (!(ground_cell_m > 0.05 && ground_cell_m <= 5)) {
+    throw InputError("the ground cell must lie in (0.05, 5] m");
+  }
+  if (!(one_sided_min_cloud_radius_m >= 0)) {
+    throw InputError("the cloud radius a one-sided fit may widen must not be negative");
+  }
+  if (!(one_sided_max_over_cloud >= 1)) {
+    throw InputError("a one-sided fit's bound over the cloud's width must be at least 1");
+  }
+  if (!(min_bark_gap_m >= 0 && min_bark_gap_m < 1)) {
+    throw InputError("the smallest gap between two stems' bark must lie in [0, 1) m");
+  }
+  if (!(larger_cloud_part_gap_m >= 0)) {
+    throw InputError(
+        "the gap within which a larger cloud's part joins a stem must not be negative");
+  }
+  if (!(larger_cloud_only_max_rms_px >= 0)) {
+    throw InputError("the rms a larger cloud's stem's silhouettes may keep must not be negative");
+  }
+  if (!(wide_fit_scale >= 1)) {
+    throw InputError(
+        "the width over the cloud's that needs the bark to line up must be at least 1");
+  }
+  if (!(wide_fit_min_bark_ncc >= -1 && wide_fit_min_bark_ncc <= 1)) {
+    throw InputError("the bark correlation a wide fit needs must lie in [-1, 1]");
+  }
+  if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
+    throw InputError(
+        "the share of a part's width below which its cores are tried must lie in [0, 1]");
+  }
+  if (!(min_core_share >= 0 && min_core_share <= 1)) {
+    throw InputError("the share of a part's width a core must reach must lie in [0, 1]");
+  }
+}
+
+MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
+  o.Check();
+  if (in.cloud == nullptr || in.camera == nullptr || in.keyframes == nullptr || in.bgr == nullptr) {
+    throw ProcessingError("measuring trees needs the cloud, the camera, keyframes and images");
+  }
+  const GroundGrid ground(*in.cloud, o.stems.search_radius_m + 2.0, o.ground_cell_m);
+  StemsResult sr = DetectStems(o.stems, *in.cloud, ground, in.depth_focal_px);
+  std::vector<Stem> larger_only;
+  if (in.coarse_cloud != nullptr && !in.coarse_cloud->empty()) {
+    // The coarse points only give a second start to parts that come to nothing; the silhouettes
+    // and the bark judge it like any other.
+    std::vector<dense::CloudPoint> all = *in.cloud;
+    all.insert(all.end(), in.coarse_cloud->begin(), in.coarse_cloud->end());
+    StemsResult more = DetectStems(o.stems, all, ground, in.depth_focal_px);
+    if (o.larger_cloud_only_max_rms_px > 0) {
+      // Where the cloud has no part at all, the larger cloud's stems, vetoed or not: the coarse
+      // points of a stem seen past a nearer one for a short turn often smear into its free space.
+      std::vector<Stem> candidates = std::move(more.vetoed);
+      candidates.insert(candidates.end(), more.stems.begin(), more.stems.end());
+      larger_only = StemsAwayFrom(candidates, o.larger_cloud_part_gap_m, sr.stems);
+      sr.larger_cloud_only = static_cast<int>(larger_only.size());
+    }
+    sr.larger_cloud_parts =
+        AttachLargerCloudParts(std::move(more.stems), o.larger_cloud_part_gap_m, &sr.stems);
+  }
+  RefineWithTangentRays(o, *in.camera, *in.keyframes, std::move(in.gray_full), *in.bgr, &sr.stems,
+                        std::move(larger_only));
+  const size_t below =
+      std::erase_if(sr.stems, [&](const Stem& s) { return 100 * s.dbh_m < o.min_dbh_cm; });
+  if (below > 0) spdlog::info("stems: {} below {:.0f} cm DBH left out", below, o.min_dbh_cm);
+  // Nearest first (docs/output-format.md's tree_id): fits move stems, and stems found late join.
+  std::ranges::stable_sort(sr.stems, NearerTheCentre);
+  MeasureResult r;
+  r.summary = sr.Summary();
+  r.summary["dbh_method"] = o.stems.dbh_method;
+  r.summary["ground_cells"] = ground.measured_cells();
+  r.summary["below_min_dbh"] = below;
+  r.trees = std::move(sr.stems);
+  return r;
+}
+
+}  // namespace stemmap::stems

@@ -1,0 +1,95 @@
+#pragma once
+
+// The tree list from the fused cloud and the keyframes: every stem and DBH decision of stemmap.
+// The pipeline hands this layer the cloud and the images and takes the trees back.
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
+#include "stemmap/dense/stereo.h"
+#include "stemmap/stems/bark_depth.h"
+#include "stemmap/stems/stems.h"
+#include "stemmap/stems/tangent.h"
+
+namespace stemmap::stems {
+
+struct MeasureOptions {
+  StemOptions stems;            // the cloud's parts: band, support, lean, free space
+  TangentOptions tangent;       // the silhouettes' fit
+  BarkDepthOptions bark_depth;  // the fit's distance from the bark
+  double min_dbh_cm = 7.0;      // stems thinner than this are not listed (a fit closed on a twig)
+  // Ground heights are measured in cells of this size (m), out to the search radius and 2 m more.
+  double ground_cell_m = 0.5;
+  // Drop cloud clusters whose silhouettes cannot be found in any view (a trunk shows two edges,
+  // a leaf clump rarely does); false keeps them, flagged no_silhouette.
+  bool require_silhouette = true;
+  // Unless the fit failed only on the bark (BarkConfirmsCloud): a stem standing in front of a
+  // wider one shows its silhouettes against that one's bark, and a fit to them can settle on the
+  // stem behind, where the bark does not line up; the part's own circle, where it does, stays.
+  bool keep_bark_confirmed_cloud = true;
+  // Silhouettes on one side only cannot tell how far the stem reaches on the other: such a fit
+  // wider than this many times the cloud's width keeps the cloud's, unless its rays agree to
+  // about a pixel and the cloud saw at least this radius (m) (a stem half hidden by a nearer one,
+  // not a twig that one loose side widened).
+  double one_sided_max_over_cloud = 1.1;
+  double one_sided_min_cloud_radius_m = 0.075;
+  // A part that silhouettes do not fit is replaced by its dense cores that they fit cleanly; when
+  // the part is kept on its cloud (one stem, perhaps widened by a shrub), only by cores at least
+  // this share of its width (a narrower one is a piece of the stem's bark).
+  double min_core_share = 0.6;
+  // A smeared part whose silhouettes fit a stem under this share of its width may be stems one
+  // behind another: its cores replace it when two or more of them fit cleanly on their own.
+  double narrow_fit_share = 0.6;
+  // Two listed stems whose bark comes closer than this (m) at breast height are one stem fitted
+  // twice (a fit that slid along its line of sight onto a nearer stem's silhouette): the one
+  // whose fit moved farther from its points is dropped.
+  double min_bark_gap_m = 0.02;
+  // A stem found with the short-baseline points too within this (m) of a part of the cloud is
+  // that part's second start (Stem::larger_cloud_part).
+  double larger_cloud_part_gap_m = 0.1;
+  // A stem of the larger cloud (vetoed by free space or not) with no part of the cloud within
+  // that gap is tried last, and listed only on sharp silhouettes: both sides in at least three
+  // views, on one circle to this many pixels rms (a nearer stem hides it for most of the turn;
+  // clutter's edges are not tangent to one circle to a fraction of a pixel). 0: not tried.
+  double larger_cloud_only_max_rms_px = 0.5;
+  // A fit over this many times the cloud's radius found silhouettes beyond anything the cloud
+  // saw (a wide start that closed on a sapling and the stem behind it, or on two neighbours):
+  // it stands only where the bark between them lines up to at least this correlation over
+  // enough pairs (BarkDepthOptions::min_pairs).
+  double wide_fit_scale = 2.0;
+  double wide_fit_min_bark_ncc = 0.5;
+  void Check() const;
+};
+// Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
+// its default.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, ground_cell_m, require_silhouette,
+    keep_bark_confirmed_cloud, one_sided_max_over_cloud, one_sided_min_cloud_radius_m,
+    min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
+    larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc)
+
+struct MeasureInput {
+  const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray
+  // The near pairs' coarse points beyond their depth limit (may be empty): a second start for
+  // parts the cloud saw only in part, and stems it missed.
+  const std::vector<dense::CloudPoint>* coarse_cloud = nullptr;
+  double depth_focal_px = 0.0;            // the depth maps' focal length (DenseResult)
+  const PinholeCamera* camera = nullptr;  // of `bgr`
+  const std::vector<StampedPose>* keyframes = nullptr;  // plot frame
+  const std::vector<cv::Mat>* bgr = nullptr;            // keyframe images (empty: missing)
+  // The keyframes' luma at the video's resolution (empty: `bgr` is used), consumed.
+  std::vector<cv::Mat> gray_full;
+};
+
+struct MeasureResult {
+  std::vector<Stem> trees;  // nearest the plot centre first
+  nlohmann::json summary;   // counts of each step
+};
+
+// The cloud's parts at breast height (and the coarse cloud's), each judged by its silhouettes
+// and bark in the keyframes: the stems with their DBH, nearest first.
+MeasureResult MeasureTrees(const MeasureOptions& options, MeasureInput input);
+
+}  // namespace stemmap::stems
