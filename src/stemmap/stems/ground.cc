@@ -1,93 +1,226 @@
 #include "stemmap/stems/ground.h"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+
+#include "stemmap/core/error.h"
 
 namespace stemmap::stems {
 
-GroundGrid::GroundGrid(const std::vector<dense::CloudPoint>& points, double radius_m, double cell_m)
-    : cell_(cell_m), origin_(-radius_m) {
-  n_ = static_cast<int>(std::ceil(2 * radius_m / cell_m));
+void GroundOptions::Check() const {
+  if (!(cell_m >= 0.1 && cell_m <= 5)) throw InputError("the ground cell must lie in [0.1, 5] m");
+  if (min_cell_points < 1) throw InputError("a ground cell needs at least one point");
+  if (!(floor_bin_m > 0 && floor_min_points >= 1)) {
+    throw InputError("a ground floor needs a layer thicker than 0 m and at least one point");
+  }
+  if (!(ground_layer_m > 0)) throw InputError("the ground layer must be thicker than 0 m");
+  if (!std::is_sorted(windows_m.begin(), windows_m.end()) ||
+      (!windows_m.empty() && !(windows_m.front() > 0))) {
+    throw InputError("the ground filter's windows must be positive and growing");
+  }
+  if (!(min_rise_m >= 0 && max_slope >= 0)) {
+    throw InputError("the ground filter's rise and slope must not be negative");
+  }
+  if (!(fill_radius_m >= 0)) throw InputError("the ground fill radius must not be negative");
+}
+
+namespace {
+
+constexpr float kMissing = std::numeric_limits<float>::quiet_NaN();
+
+// The floor (lowest layer with enough points) of one cell's heights, sorted in place, and the
+// median of its ground layer; false when no layer holds enough.
+bool CellGround(const GroundOptions& o, std::vector<float>* zs, float* floor, float* ground) {
+  std::sort(zs->begin(), zs->end());
+  const size_t need = static_cast<size_t>(o.floor_min_points);
+  // The first point whose layer [z, z + floor_bin_m] holds `need` points.
+  for (size_t i = 0; i + need <= zs->size(); ++i) {
+    if ((*zs)[i + need - 1] - (*zs)[i] > o.floor_bin_m) continue;
+    *floor = (*zs)[i];
+    const auto bottom = zs->begin() + static_cast<std::ptrdiff_t>(i);
+    const auto top = std::upper_bound(bottom, zs->end(), *floor + o.ground_layer_m);
+    *ground = *(bottom + (top - bottom) / 2);
+    return true;
+  }
+  return false;
+}
+
+// Grey-level opening of `surface` (missing cells NaN) with a disc of `diameter` cells: the
+// erosion ignores missing cells, the dilation too.
+cv::Mat Opening(const cv::Mat& surface, int diameter) {
+  const cv::Mat disc = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(diameter, diameter));
+  constexpr float kHigh = 1e6f;
+  cv::Mat high = surface.clone();
+  cv::patchNaNs(high, kHigh);
+  cv::Mat eroded;
+  cv::erode(high, eroded, disc, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(kHigh));
+  eroded.setTo(-kHigh, eroded >= kHigh);
+  cv::Mat opened;
+  cv::dilate(eroded, opened, disc, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(-kHigh));
+  opened.setTo(kMissing, opened <= -kHigh);
+  return opened;
+}
+
+}  // namespace
+
+GroundGrid::GroundGrid(const std::vector<dense::CloudPoint>& points, double radius_m,
+                       const GroundOptions& o)
+    : o_(o), origin_(-radius_m) {
+  o.Check();
+  n_ = static_cast<int>(std::ceil(2 * radius_m / o.cell_m));
   std::vector<std::vector<float>> zs(static_cast<size_t>(n_) * n_);
   for (const dense::CloudPoint& p : points) {
-    const int i = static_cast<int>((p.world.x() - origin_) / cell_);
-    const int j = static_cast<int>((p.world.y() - origin_) / cell_);
+    const int i = static_cast<int>(std::floor((p.world.x() - origin_) / o.cell_m));
+    const int j = static_cast<int>(std::floor((p.world.y() - origin_) / o.cell_m));
     if (i < 0 || j < 0 || i >= n_ || j >= n_) continue;
     zs[static_cast<size_t>(j) * n_ + i].push_back(p.world.z());
   }
-  const float kMissing = std::numeric_limits<float>::quiet_NaN();
+  std::vector<float> floors(zs.size(), kMissing);
   z_.assign(zs.size(), kMissing);
   for (size_t c = 0; c < zs.size(); ++c) {
-    std::vector<float>& v = zs[c];
-    if (v.size() < 8) continue;
-    // A low percentile, not the minimum: stereo outliers fall below the ground too.
-    const size_t q = v.size() / 20;
-    std::nth_element(v.begin(), v.begin() + q, v.end());
-    z_[c] = v[q];
+    if (static_cast<int>(zs[c].size()) < o.min_cell_points) continue;
+    if (!CellGround(o, &zs[c], &floors[c], &z_[c])) continue;
     ++measured_;
   }
-  // Cells well above a robust plane through all cells are trunks, shrubs or stems seen without the
-  // ground below them (near the tripod the camera sees no ground): they and the empty cells take
-  // the plane's height.
-  FitPlaneAndDropRaisedCells();
-  for (size_t c = 0; c < z_.size(); ++c) {
-    if (std::isnan(z_[c])) {
-      const double x = origin_ + (static_cast<int>(c % n_) + 0.5) * cell_;
-      const double y = origin_ + (static_cast<int>(c / n_) + 0.5) * cell_;
-      z_[c] = static_cast<float>(plane_.x() * x + plane_.y() * y + plane_.z());
-    }
+  if (measured_ == 0) {
+    n_ = 0;
+    return;
   }
-  if (measured_ == 0) n_ = 0;
+  FillFromGroundCells(FilterGround(floors));
 }
 
-void GroundGrid::FitPlaneAndDropRaisedCells() {
-  std::vector<Eigen::Vector3d> cells;
-  for (size_t c = 0; c < z_.size(); ++c) {
-    if (std::isnan(z_[c])) continue;
-    cells.emplace_back(origin_ + (static_cast<int>(c % n_) + 0.5) * cell_,
-                       origin_ + (static_cast<int>(c / n_) + 0.5) * cell_, z_[c]);
-  }
-  if (cells.size() < 10) return;
-  // z = a x + b y + c, reweighted so that cells above it count little: the ground is the floor.
-  std::vector<double> w(cells.size(), 1.0);
-  for (int it = 0; it < 8; ++it) {
-    Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d atb = Eigen::Vector3d::Zero();
-    for (size_t k = 0; k < cells.size(); ++k) {
-      const Eigen::Vector3d a(cells[k].x(), cells[k].y(), 1.0);
-      ata += w[k] * a * a.transpose();
-      atb += w[k] * a * cells[k].z();
+std::vector<char> GroundGrid::FilterGround(const std::vector<float>& floors) const {
+  cv::Mat surface = cv::Mat(n_, n_, CV_32F, const_cast<float*>(floors.data())).clone();
+  std::vector<char> is_ground(floors.size(), 0);
+  for (size_t c = 0; c < floors.size(); ++c) is_ground[c] = !std::isnan(floors[c]);
+  for (double window_m : o_.windows_m) {
+    const int diameter = std::max(1, static_cast<int>(std::lround(window_m / o_.cell_m)) | 1);
+    const cv::Mat opened = Opening(surface, diameter);
+    // Opening keeps a plane and lowers a mound: by at most the slope times the window's radius.
+    const double rise_m = o_.min_rise_m + o_.max_slope * 0.5 * window_m;
+    const float* surface_z = surface.ptr<float>();
+    const float* opened_z = opened.ptr<float>();
+    for (int c = 0; c < n_ * n_; ++c) {
+      const float s = surface_z[c], t = opened_z[c];
+      if (!std::isnan(s) && !std::isnan(t) && s - t > rise_m) is_ground[c] = 0;
     }
-    plane_ = ata.ldlt().solve(atb);
-    for (size_t k = 0; k < cells.size(); ++k) {
-      const double e =
-          cells[k].z() - (plane_.x() * cells[k].x() + plane_.y() * cells[k].y() + plane_.z());
-      w[k] = e > 0.1 ? std::pow(0.1 / e, 2) : 1.0;
+    surface = opened;
+  }
+  KeepTheLargestGroundPatch(floors, &is_ground);
+  return is_ground;
+}
+
+void GroundGrid::KeepTheLargestGroundPatch(const std::vector<float>& floors,
+                                           std::vector<char>* is_ground) const {
+  // Ground cells join their 8 neighbours that are ground within a slope's step of them; islands
+  // apart from the largest patch are what stands alone in a hole of the data (a sapling's crown
+  // beside the tripod, where the camera sees no ground), which no opening can tell from ground.
+  const double max_step_m = o_.min_rise_m + o_.max_slope * o_.cell_m * std::sqrt(2.0);
+  std::vector<int> patch(floors.size(), -1), sizes;
+  for (int start = 0; start < n_ * n_; ++start) {
+    if (!(*is_ground)[start] || patch[start] >= 0) continue;
+    const int id = static_cast<int>(sizes.size());
+    sizes.push_back(0);
+    std::vector<int> todo = {start};
+    patch[start] = id;
+    while (!todo.empty()) {
+      const int c = todo.back();
+      todo.pop_back();
+      ++sizes[id];
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          const int i = c % n_ + di, j = c / n_ + dj;
+          if (i < 0 || j < 0 || i >= n_ || j >= n_) continue;
+          const int g = j * n_ + i;
+          if (!(*is_ground)[g] || patch[g] >= 0 || std::abs(floors[g] - floors[c]) > max_step_m) {
+            continue;
+          }
+          patch[g] = id;
+          todo.push_back(g);
+        }
+      }
     }
   }
-  for (size_t c = 0; c < z_.size(); ++c) {
-    if (std::isnan(z_[c])) continue;
-    const double x = origin_ + (static_cast<int>(c % n_) + 0.5) * cell_;
-    const double y = origin_ + (static_cast<int>(c / n_) + 0.5) * cell_;
-    if (z_[c] - (plane_.x() * x + plane_.y() * y + plane_.z()) > kMaxAbovePlaneM) {
-      z_[c] = std::numeric_limits<float>::quiet_NaN();
-      --measured_;
+  if (sizes.empty()) return;
+  const int largest =
+      static_cast<int>(std::max_element(sizes.begin(), sizes.end()) - sizes.begin());
+  for (int c = 0; c < n_ * n_; ++c) (*is_ground)[c] = (*is_ground)[c] && patch[c] == largest;
+}
+
+void GroundGrid::FillFromGroundCells(const std::vector<char>& is_ground) {
+  auto centre = [&](int c) {
+    return Eigen::Vector2d(origin_ + (c % n_ + 0.5) * o_.cell_m,
+                           origin_ + (c / n_ + 0.5) * o_.cell_m);
+  };
+  // The plane through the ground cells, for places far from all of them, and the one through
+  // those near the axis.
+  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero(), axis_ata = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d atb = Eigen::Vector3d::Zero(), axis_atb = Eigen::Vector3d::Zero();
+  int axis_cells = 0;
+  for (int c = 0; c < n_ * n_; ++c) {
+    if (!is_ground[c]) continue;
+    ++ground_;
+    const Eigen::Vector2d xy = centre(c);
+    const Eigen::Vector3d row(xy.x(), xy.y(), 1.0);
+    ata += row * row.transpose();
+    atb += row * z_[c];
+    if (xy.norm() <= o_.axis_plane_radius_m) {
+      axis_ata += row * row.transpose();
+      axis_atb += row * z_[c];
+      ++axis_cells;
     }
   }
+  const Eigen::Vector3d plane =
+      ground_ >= 3 ? Eigen::Vector3d(ata.ldlt().solve(atb)) : Eigen::Vector3d::Zero();
+  axis_height_m_ = axis_cells >= 3 ? axis_ata.ldlt().solve(axis_atb).z()
+                                   : std::numeric_limits<double>::quiet_NaN();
+  const int reach = static_cast<int>(std::ceil(o_.fill_radius_m / o_.cell_m));
+  std::vector<float> filled = z_;
+  for (int c = 0; c < n_ * n_; ++c) {
+    if (is_ground[c]) continue;
+    const int ci = c % n_, cj = c / n_;
+    const Eigen::Vector2d xy = centre(c);
+    // The local plane in coordinates about this cell: its constant term is the height here.
+    Eigen::Matrix3d local_ata = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d local_atb = Eigen::Vector3d::Zero();
+    int near = 0;
+    for (int j = std::max(0, cj - reach); j <= std::min(n_ - 1, cj + reach); ++j) {
+      for (int i = std::max(0, ci - reach); i <= std::min(n_ - 1, ci + reach); ++i) {
+        const int g = j * n_ + i;
+        if (!is_ground[g]) continue;
+        const Eigen::Vector2d d = o_.cell_m * Eigen::Vector2d(i - ci, j - cj);
+        if (d.norm() > o_.fill_radius_m) continue;
+        const double w = 1.0 / d.squaredNorm();
+        const Eigen::Vector3d row(d.x(), d.y(), 1.0);
+        local_ata += w * row * row.transpose();
+        local_atb += w * row * z_[g];
+        ++near;
+      }
+    }
+    // Ground cells on one side only, or too few, tilt a local plane: the plot's plane instead.
+    const Eigen::LDLT<Eigen::Matrix3d> local(local_ata);
+    const bool spread = near >= 6 && local_ata.determinant() > 1e-9 * std::pow(local_ata(2, 2), 3);
+    filled[c] = static_cast<float>(spread ? local.solve(local_atb).z()
+                                          : plane.x() * xy.x() + plane.y() * xy.y() + plane.z());
+  }
+  z_ = std::move(filled);
 }
 
 double GroundGrid::Height(double x, double y) const {
   if (n_ == 0) return 0.0;
   // Bilinear between cell centres.
-  const double fx = std::clamp((x - origin_) / cell_ - 0.5, 0.0, n_ - 1.0);
-  const double fy = std::clamp((y - origin_) / cell_ - 0.5, 0.0, n_ - 1.0);
-  const int i = std::min(static_cast<int>(fx), n_ - 2), j = std::min(static_cast<int>(fy), n_ - 2);
+  const double fx = std::clamp((x - origin_) / o_.cell_m - 0.5, 0.0, n_ - 1.0);
+  const double fy = std::clamp((y - origin_) / o_.cell_m - 0.5, 0.0, n_ - 1.0);
+  const int i = std::min(static_cast<int>(fx), std::max(0, n_ - 2));
+  const int j = std::min(static_cast<int>(fy), std::max(0, n_ - 2));
   const double u = fx - i, v = fy - j;
   auto at = [&](int a, int b) {
-    const float z = z_[static_cast<size_t>(b) * n_ + a];
-    return std::isnan(z) ? 0.0 : static_cast<double>(z);
+    return static_cast<double>(
+        z_[static_cast<size_t>(std::min(b, n_ - 1)) * n_ + std::min(a, n_ - 1)]);
   };
-  if (n_ < 2) return at(0, 0);
   return (1 - u) * (1 - v) * at(i, j) + u * (1 - v) * at(i + 1, j) + (1 - u) * v * at(i, j + 1) +
          u * v * at(i + 1, j + 1);
 }

@@ -1,30 +1,72 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 #include "stemmap/dense/stereo.h"
 
 namespace stemmap::stems {
 
-// Terrain under the plot: a grid of ground heights from the lowest points of each cell, holes
-// filled from the neighbours, so heights above ground follow a slope and its bumps.
+struct GroundOptions {
+  double cell_m = 0.5;      // grid cell (m)
+  int min_cell_points = 8;  // fewer points: the cell is not measured
+  // A cell's floor is the lowest layer (floor_bin_m thick) that holds at least floor_min_points
+  // of its points (a stray stereo point below the ground does not; leaves and a stem's bark
+  // outnumber the ground in their cells, so no quantile of the cell would do). Its ground is the
+  // median of its points within ground_layer_m above the floor.
+  double floor_bin_m = 0.05;
+  int floor_min_points = 3;
+  double ground_layer_m = 0.1;
+  // Morphological ground filter (progressive opening): windows of these diameters (m), growing;
+  // a cell standing more than min_rise_m + max_slope times the window's radius above the opened
+  // surface is something on the ground (shrub, sapling crown, dead wood, a stem's part), not it.
+  // Slopes, and mounds broader than the window, stay ground.
+  std::vector<double> windows_m = {1.0, 2.0, 4.0, 8.0};
+  double min_rise_m = 0.05;
+  double max_slope = 0.3;  // rise over run (17°)
+  // Cells without ground (under the tripod the outward-facing camera sees none within ~3.5 m;
+  // under a wide shrub) take the plane through the ground cells within this (m), weighted by
+  // inverse squared distance, else the plane through all ground cells.
+  double fill_radius_m = 5.0;
+  // The ground under the tripod (AxisHeight) is the plane through the ground cells within this
+  // (m): nearer ones alone, seen from 3.5 m out, would carry a mound beside the tripod into it.
+  double axis_plane_radius_m = 8.0;
+  void Check() const;
+};
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(GroundOptions, cell_m, min_cell_points, floor_bin_m,
+                                                floor_min_points, ground_layer_m, windows_m,
+                                                min_rise_m, max_slope, fill_radius_m,
+                                                axis_plane_radius_m)
+
+// Terrain under the plot: a grid of ground heights from each cell's floor, with what stands on
+// the ground (shrubs, sapling crowns, dead wood) filtered out by a progressive morphological
+// opening, islands apart from the ground's largest patch left out, and holes filled from the
+// ground cells around them. Heights above ground follow a
+// slope, its bumps and mounds.
 class GroundGrid {
  public:
   GroundGrid() = default;
-  // `points` in the plot frame; cells of `cell_m` out to `radius_m`.
-  GroundGrid(const std::vector<dense::CloudPoint>& points, double radius_m, double cell_m);
+  // `points` in the plot frame; cells out to `radius_m` from the plot centre.
+  GroundGrid(const std::vector<dense::CloudPoint>& points, double radius_m,
+             const GroundOptions& options = {});
   double Height(double x, double y) const;
+  // The ground under the plot centre, where the camera sees none (GroundOptions::
+  // axis_plane_radius_m); NaN without three ground cells in reach.
+  double AxisHeight() const { return axis_height_m_; }
   bool empty() const { return n_ == 0; }
-  int measured_cells() const { return measured_; }
+  int measured_cells() const { return measured_; }  // cells with points
+  int ground_cells() const { return ground_; }      // of which on the ground
 
  private:
-  // Bumps stay; a cell this far above the plane through the terrain is not ground.
-  static constexpr double kMaxAbovePlaneM = 0.35;
-  void FitPlaneAndDropRaisedCells();
-  Eigen::Vector3d plane_ = Eigen::Vector3d::Zero();  // z = a x + b y + c
-  int n_ = 0, measured_ = 0;
-  double cell_ = 0.5, origin_ = 0.0;
+  // The ground flag of each measured cell from the floors (NaN: not measured).
+  std::vector<char> FilterGround(const std::vector<float>& floors) const;
+  void KeepTheLargestGroundPatch(const std::vector<float>& floors,
+                                 std::vector<char>* is_ground) const;
+  void FillFromGroundCells(const std::vector<char>& is_ground);
+  GroundOptions o_;
+  int n_ = 0, measured_ = 0, ground_ = 0;
+  double origin_ = 0.0, axis_height_m_ = 0.0;
   std::vector<float> z_;
 };
 

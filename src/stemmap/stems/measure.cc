@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <cmath>
 #include <utility>
 
 #include "stemmap/core/error.h"
@@ -15,9 +16,7 @@ void MeasureOptions::Check() const {
   stems.Check();
   bark_depth.Check();
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
-  if (!(ground_cell_m > 0.05 && ground_cell_m <= 5)) {
-    throw InputError("the ground cell must lie in (0.05, 5] m");
-  }
+  ground.Check();
   if (!(one_sided_min_cloud_radius_m >= 0)) {
     throw InputError("the cloud radius a one-sided fit may widen must not be negative");
   }
@@ -55,7 +54,7 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
   if (in.cloud == nullptr || in.camera == nullptr || in.keyframes == nullptr || in.bgr == nullptr) {
     throw ProcessingError("measuring trees needs the cloud, the camera, keyframes and images");
   }
-  const GroundGrid ground(*in.cloud, o.stems.search_radius_m + 2.0, o.ground_cell_m);
+  const GroundGrid ground(*in.cloud, o.stems.search_radius_m + 2.0, o.ground);
   StemsResult sr = DetectStems(o.stems, *in.cloud, ground, in.depth_focal_px);
   std::vector<Stem> larger_only;
   if (in.coarse_cloud != nullptr && !in.coarse_cloud->empty()) {
@@ -85,7 +84,17 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
   MeasureResult r;
   r.summary = sr.Summary();
   r.summary["dbh_method"] = o.stems.dbh_method;
-  r.summary["ground_cells"] = ground.measured_cells();
+  // The camera circle's height above the ground under the tripod, as the cloud's ground gives it
+  // (the plot frame's origin came from the sparse points' ground).
+  double camera_z_m = 0.0;
+  for (const StampedPose& k : *in.keyframes) camera_z_m += k.world_from_cam.translation.z();
+  if (!in.keyframes->empty()) camera_z_m /= static_cast<double>(in.keyframes->size());
+  if (std::isfinite(ground.AxisHeight())) {
+    r.summary["ground_at_axis_m"] = ground.AxisHeight();
+    r.summary["camera_height_m"] = camera_z_m - ground.AxisHeight();
+  }
+  r.summary["ground_cells"] = ground.ground_cells();
+  r.summary["measured_cells"] = ground.measured_cells();
   r.summary["below_min_dbh"] = below;
   r.trees = std::move(sr.stems);
   return r;

@@ -10,6 +10,7 @@
 #include "stemmap/core/pose.h"
 #include "stemmap/dense/stereo.h"
 #include "stemmap/stems/bark_depth.h"
+#include "stemmap/stems/ground.h"
 #include "stemmap/stems/stems.h"
 #include "stemmap/stems/tangent.h"
 
@@ -20,8 +21,7 @@ struct MeasureOptions {
   TangentOptions tangent;       // the silhouettes' fit
   BarkDepthOptions bark_depth;  // the fit's distance from the bark
   double min_dbh_cm = 7.0;      // stems thinner than this are not listed (a fit closed on a twig)
-  // Ground heights are measured in cells of this size (m), out to the search radius and 2 m more.
-  double ground_cell_m = 0.5;
+  GroundOptions ground;  // the terrain under the plot, out to the search radius and 2 m more
   // Drop cloud clusters whose silhouettes cannot be found in any view (a trunk shows two edges,
   // a leaf clump rarely does); false keeps them, flagged no_silhouette.
   bool require_silhouette = true;
@@ -65,7 +65,7 @@ struct MeasureOptions {
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
-    MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, ground_cell_m, require_silhouette,
+    MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, ground, require_silhouette,
     keep_bark_confirmed_cloud, one_sided_max_over_cloud, one_sided_min_cloud_radius_m,
     min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
     larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc)

@@ -48,8 +48,11 @@ TEST(MeasureOptions, TheLargerCloudsSettingsAreChecked) {
   o.wide_fit_min_bark_ncc = 1.5;
   EXPECT_EQ(CheckMessage(o), "the bark correlation a wide fit needs must lie in [-1, 1]");
   o = MeasureOptions();
-  o.ground_cell_m = 0;
-  EXPECT_EQ(CheckMessage(o), "the ground cell must lie in (0.05, 5] m");
+  o.ground.cell_m = 0;
+  EXPECT_EQ(CheckMessage(o), "the ground cell must lie in [0.1, 5] m");
+  o = MeasureOptions();
+  o.ground.windows_m = {2.0, 1.0};
+  EXPECT_EQ(CheckMessage(o), "the ground filter's windows must be positive and growing");
 }
 
 // A rendered scene and the cloud its keyframes' stereo would give: points on the part of each

@@ -35,7 +35,7 @@ void AddSeenFromArm(const Eigen::Vector3d& p, Rng* rng, std::vector<dense::Cloud
 // where real smears defeat it.
 StemsResult DetectWithoutBearingSplit(const std::vector<dense::CloudPoint>& cloud,
                                       bool split_parts_into_cores = true) {
-  const GroundGrid ground(cloud, 13, 0.5);
+  const GroundGrid ground(cloud, 13);
   StemOptions o;
   o.split_by_bearing = false;
   o.split_parts_into_cores = split_parts_into_cores;
@@ -141,7 +141,7 @@ TEST(StemOptions, CheckRejectsOutOfRangeValues) {
 
 TEST(Stems, DetectsTrunksAndVetoesAGhost) {
   const std::vector<dense::CloudPoint> cloud = TwoTrunksAndAGhost();
-  const GroundGrid ground(cloud, 13, 0.5);
+  const GroundGrid ground(cloud, 13);
   EXPECT_NEAR(ground.Height(3, 3), 0.0, 0.05);
   StemOptions o;
   o.dbh_method = "circle";
@@ -167,7 +167,7 @@ TEST(Stems, TrunkMaskKeepsOtherSurfacesOut) {
     const bool first_trunk = i >= kGroundPoints && i < kGroundPoints + kTrunkPoints;
     cloud[i].trunk = first_trunk ? 0 : 1;
   }
-  const GroundGrid ground(cloud, 13, 0.5);
+  const GroundGrid ground(cloud, 13);
   StemOptions o;
   o.dbh_method = "circle";
   const StemsResult r = DetectStems(o, cloud, ground);
@@ -197,7 +197,7 @@ TEST(Stems, ThinlySeenFarTrunksAreWeakOrDropped) {
                           rng.Uniform(0, 3)));
     }
   }
-  const GroundGrid ground(cloud, 13, 0.5);
+  const GroundGrid ground(cloud, 13);
   const StemsResult r = DetectStems(StemOptions(), cloud, ground, 500.0);
   ASSERT_EQ(r.stems.size(), 1u);
   EXPECT_TRUE(r.stems[0].weak_support);
@@ -224,7 +224,7 @@ TEST(Stems, SmearedFarTrunkIsKeptByItsWidthAcross) {
     const Eigen::Vector3d p(xy.x(), xy.y(), rng.Uniform(0, 3));
     cloud.push_back({p.cast<float>(), origin.cast<float>(), cv::Vec3b(80, 90, 100), 0});
   }
-  const GroundGrid ground(cloud, 13, 0.5);
+  const GroundGrid ground(cloud, 13);
   const StemsResult res = DetectStems(StemOptions(), cloud, ground);
   ASSERT_EQ(res.stems.size(), 1u);
   const Stem& s = res.stems[0];
@@ -261,7 +261,7 @@ TEST(Stems, NearTrunkWithStrayPointsAboveIsVertical) {
     add(Eigen::Vector3d(c.x() - d * 0.55 + side * 0.83, c.y() - d * 0.83 - side * 0.55,
                         rng.Uniform(1.7, 2.1)));
   }
-  const GroundGrid ground(cloud, 13, 0.5);
+  const GroundGrid ground(cloud, 13);
   const StemsResult res = DetectStems(StemOptions(), cloud, ground, 500.0);
   ASSERT_EQ(res.stems.size(), 1u);
   EXPECT_LT((res.stems[0].centre_xy - c).norm(), 0.05);
@@ -293,7 +293,7 @@ TEST(Stems, ASliceBowedTowardTheCamerasKeepsTheBandsCircle) {
       add(Eigen::Vector3d(c.x() + r * std::cos(phi), c.y() + r * std::sin(phi), z));
     }
   }
-  const GroundGrid ground(cloud, 13, 0.5);
+  const GroundGrid ground(cloud, 13);
   const StemsResult res = DetectStems(StemOptions(), cloud, ground, 500.0);
   ASSERT_EQ(res.stems.size(), 1u);
   EXPECT_LT((res.stems[0].centre_xy - c).norm(), 0.03);

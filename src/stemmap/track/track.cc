@@ -75,6 +75,7 @@ PinholeCamera WorkingCamera(const TrackOptions& o, const VideoInfo& info) {
 }  // namespace
 
 void TrackOptions::Check() const {
+  ground.Check();
   if (!(max_bridged_gap_s >= 0)) throw InputError("the longest bridged gap must not be negative");
   if (calibration.empty() && !(hfov_deg >= 20.0 && hfov_deg <= 150.0)) {
     throw InputError(fmt::format("--hfov {}° is outside 20-150°", hfov_deg));
@@ -243,7 +244,7 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
   for (size_t t = 0; t < map.point_world.size(); ++t) {
     if (map.point_valid[t]) pts_axis.push_back(map.point_world[t]);
   }
-  const GroundFit ground = FitGround(pts_axis, 2.0, 12.0, 0.05, 7);
+  const GroundFit ground = FitGround(o.ground, pts_axis);
   double ground_z = ground.found ? ground.height_at_axis_m : -1.3;
   if (o.camera_height_m > 0) {
     ground_z = -o.camera_height_m;

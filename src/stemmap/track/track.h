@@ -11,6 +11,7 @@
 #include "stemmap/track/frame_poses.h"
 #include "stemmap/track/frontend.h"
 #include "stemmap/track/loop_closure.h"
+#include "stemmap/track/plot_frame.h"
 #include "stemmap/track/refine_observations.h"
 #include "stemmap/track/vertical.h"
 
@@ -45,6 +46,7 @@ struct TrackOptions {
   VerticalOptions vertical;
   BundleOptions bundle;
   FramePoseOptions frames;
+  GroundFitOptions ground;  // the ground under the sparse points, without --camera-height
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -53,7 +55,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(TrackOptions, arm_radius_m, hfov
                                                 focal, camera_height_m, min_turn_deg,
                                                 max_dark_share, max_bridged_gap_s, bundle_rounds,
                                                 refine_observations, refine, frontend, loop,
-                                                vertical, bundle, frames)
+                                                vertical, bundle, frames, ground)
 
 struct TrackResult {
   PinholeCamera camera;                  // working resolution

@@ -1,0 +1,128 @@
+#include "stemmap/stems/ground.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "stemmap/core/rng.h"
+
+namespace stemmap::stems {
+namespace {
+
+// Uneven ground: a slope and broad mounds and hollows (up to ±0.8 m, 1.5-4 m wide), all of
+// them beyond `bumps_from_m` plus twice their width from the plot centre.
+struct Terrain {
+  double slope_x = 0.0, slope_y = 0.0;
+  std::vector<Eigen::Vector4d> bumps;  // x, y, height, width
+  double Height(double x, double y) const {
+    double z = slope_x * x + slope_y * y;
+    for (const Eigen::Vector4d& b : bumps) {
+      z += b.z() *
+           std::exp(-(std::pow(x - b.x(), 2) + std::pow(y - b.y(), 2)) / (2 * b.w() * b.w()));
+    }
+    return z;
+  }
+};
+
+Terrain MakeTerrain(Rng* rng, double slope_deg, double bumps_from_m) {
+  Terrain t;
+  const double a = rng->Uniform(0, 2 * M_PI), g = std::tan(slope_deg * M_PI / 180);
+  t.slope_x = g * std::cos(a);
+  t.slope_y = g * std::sin(a);
+  for (int i = 0; i < 12; ++i) {
+    const double b = rng->Uniform(0, 2 * M_PI), width = rng->Uniform(1.5, 4.0);
+    const double r = rng->Uniform(std::min(bumps_from_m + 2 * width, 12.0), 13);
+    t.bumps.emplace_back(r * std::cos(b), r * std::sin(b), rng->Uniform(-0.8, 0.8), width);
+  }
+  return t;
+}
+
+dense::CloudPoint At(double x, double y, double z) {
+  return {Eigen::Vector3f(x, y, z), Eigen::Vector3f(0, 0, 1.3f), cv::Vec3b(60, 70, 80), 0};
+}
+
+// What stereo sees of a plot with understory: the ground 3-12 m out where nothing stands on it
+// (3 cm noise), shrubs and sapling crowns 0.3-1.5 m tall over `cover` of it (their leaves, mostly
+// the upper ones, and now and then the ground between them), and stems with their bark down to
+// the ground.
+std::vector<dense::CloudPoint> Understory(const Terrain& t, double cover, Rng* rng,
+                                          std::vector<Eigen::Vector3d>* stems) {
+  std::vector<Eigen::Vector4d> shrubs;  // x, y, radius, height
+  double area = 0.0;
+  while (area < cover * M_PI * (144 - 4)) {
+    const double a = rng->Uniform(0, 2 * M_PI), r = rng->Uniform(2, 12);
+    shrubs.emplace_back(r * std::cos(a), r * std::sin(a), rng->Uniform(0.5, 1.5),
+                        rng->Uniform(0.3, 1.5));
+    area += M_PI * shrubs.back().z() * shrubs.back().z() * 0.8;  // they overlap a little
+  }
+  std::vector<dense::CloudPoint> cloud;
+  for (int i = 0; i < 150000; ++i) {
+    const double a = rng->Uniform(0, 2 * M_PI), r = std::sqrt(rng->Uniform(9, 144));
+    const double x = r * std::cos(a), y = r * std::sin(a), ground = t.Height(x, y);
+    const Eigen::Vector4d* over = nullptr;
+    for (const Eigen::Vector4d& s : shrubs) {
+      if (std::hypot(x - s.x(), y - s.y()) < s.z()) over = &s;
+    }
+    if (over == nullptr || rng->Uniform() < 0.05) {
+      cloud.push_back(At(x, y, ground + rng->Normal(0, 0.03)));
+    } else {
+      cloud.push_back(At(x, y, ground + over->w() * (1 - 0.7 * std::pow(rng->Uniform(), 3))));
+    }
+  }
+  for (int k = 0; k < 15; ++k) {
+    const double a = rng->Uniform(0, 2 * M_PI), r = rng->Uniform(3, 11);
+    stems->emplace_back(r * std::cos(a), r * std::sin(a), rng->Uniform(0.08, 0.3));
+    const Eigen::Vector3d& s = stems->back();
+    const double base = t.Height(s.x(), s.y());
+    for (int i = 0; i < 3000; ++i) {
+      const double b = rng->Uniform(0, 2 * M_PI);
+      cloud.push_back(
+          At(s.x() + s.z() * std::cos(b), s.y() + s.z() * std::sin(b), base + rng->Uniform(0, 3)));
+    }
+  }
+  return cloud;
+}
+
+// The ground at each stem, under shrubs and on mounds, over covers and slopes.
+TEST(GroundGrid, TheGroundAtEachStemUnderUnderstory) {
+  for (double cover : {0.3, 0.6}) {
+    for (double slope_deg : {2.0, 10.0}) {
+      for (uint64_t seed : {1, 2}) {
+        SCOPED_TRACE(::testing::Message()
+                     << "cover " << cover << ", slope " << slope_deg << "°, seed " << seed);
+        Rng rng(seed);
+        const Terrain terrain = MakeTerrain(&rng, slope_deg, 0.0);
+        std::vector<Eigen::Vector3d> stems;
+        const GroundGrid grid(Understory(terrain, cover, &rng, &stems), 13);
+        double sum_sq = 0.0;
+        for (const Eigen::Vector3d& s : stems) {
+          const double e = grid.Height(s.x(), s.y()) - terrain.Height(s.x(), s.y());
+          EXPECT_LT(std::abs(e), 0.1) << "stem at " << s.transpose();
+          sum_sq += e * e;
+        }
+        EXPECT_LT(std::sqrt(sum_sq / stems.size()), 0.05);
+      }
+    }
+  }
+}
+
+// Under the tripod the camera sees no ground within ~3.5 m: the ground around is carried in, which
+// holds where the terrain is smooth over that disc (a slope; mounds and hollows farther out). A
+// mound or hollow under the tripod is out of sight: --camera-height is the answer to it.
+TEST(GroundGrid, TheGroundUnderTheTripodFromTheGroundAround) {
+  for (double slope_deg : {0.0, 5.0, 10.0}) {
+    for (uint64_t seed : {7, 8}) {
+      SCOPED_TRACE(::testing::Message() << "slope " << slope_deg << "°, seed " << seed);
+      Rng rng(seed);
+      const Terrain terrain = MakeTerrain(&rng, slope_deg, 6.0);
+      std::vector<Eigen::Vector3d> stems;
+      const GroundGrid grid(Understory(terrain, 0.5, &rng, &stems), 13);
+      EXPECT_NEAR(grid.Height(0, 0), terrain.Height(0, 0), 0.05);
+      EXPECT_NEAR(grid.AxisHeight(), terrain.Height(0, 0), 0.05);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace stemmap::stems
