@@ -56,7 +56,7 @@ void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::S
     const double d = t.centre_xy.norm();
     double az = std::atan2(t.centre_xy.y(), t.centre_xy.x()) * 180.0 / M_PI;
     if (az < 0) az += 360.0;
-    std::vector<std::string> flags = t.flags;
+    std::vector<std::string_view> flags = t.flags.Names();
     if (std::abs(d - plot_radius_m) < 0.5) flags.push_back("plot_edge");
     s += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.1f},{:.1f},{:.2f},{:.1f},{},{}\n", ++id,
                      t.centre_xy.x(), t.centre_xy.y(), t.ground_z_m + breast_height_m,
@@ -88,7 +88,7 @@ std::string ProcessResult::Table() const {
     if (az < 0) az += 360.0;
     s += fmt::format("{:>4} {:>8.2f} {:>8.1f} {:>8.1f} {:>8.1f} {:>6}  {}\n", ++id,
                      t.centre_xy.norm(), az, 100 * t.dbh_m, 100 * t.dbh_sd_m, t.n_views,
-                     fmt::join(t.flags, ";"));
+                     fmt::join(t.flags.Names(), ";"));
   }
   s += fmt::format(
       "{} stems in the plot: {:.0f} stems/ha, basal area {:.1f} m²/ha, QMD {:.1f} cm\n",

@@ -69,8 +69,8 @@ std::string PlotMapSvg(const MapOptions& o, const std::vector<stems::Stem>& stem
         "<title>tree {}: DBH {:.1f} cm{}{}</title></circle>\n<text x=\"{:.1f}\" "
         "y=\"{:.1f}\">{}</text></a>\n",
         id, sx(s.centre_xy.x()), sy(s.centre_xy.y()), r_px, fill, id, 100 * s.dbh_m,
-        s.flags.empty() ? "" : ", ", fmt::join(s.flags, ", "), sx(s.centre_xy.x()) + r_px + 1,
-        sy(s.centre_xy.y()) - r_px, id);
+        s.flags.empty() ? "" : ", ", fmt::join(s.flags.Names(), ", "),
+        sx(s.centre_xy.x()) + r_px + 1, sy(s.centre_xy.y()) - r_px, id);
   }
   // Scale bar and legend along the bottom.
   const double y0 = o.size_px - 14.0;

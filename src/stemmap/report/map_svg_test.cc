@@ -7,11 +7,11 @@
 namespace stemmap::report {
 namespace {
 
-stems::Stem MakeStem(double x, double y, double dbh_m, std::vector<std::string> flags = {}) {
+stems::Stem MakeStem(double x, double y, double dbh_m, bool occluded = false) {
   stems::Stem s;
   s.centre_xy = {x, y};
   s.dbh_m = dbh_m;
-  s.flags = std::move(flags);
+  if (occluded) s.flags.Set(stems::StemFlag::kOccluded);
   return s;
 }
 
@@ -23,7 +23,7 @@ int Count(const std::string& s, const std::string& what) {
 
 TEST(PlotMapSvg, DrawsEveryStemColouredByItsStanding) {
   const std::vector<stems::Stem> stems = {MakeStem(3.0, 1.0, 0.30), MakeStem(-5.0, 2.0, 0.20),
-                                          MakeStem(0.0, 10.6, 0.25, {"occluded"})};
+                                          MakeStem(0.0, 10.6, 0.25, /*occluded=*/true)};
   const std::string svg = PlotMapSvg(MapOptions{}, stems, {{1.0, 0.0}, {0.0, 1.0}, {-1.0, 0.0}});
   EXPECT_EQ(svg.rfind("<svg", 0), 0u);
   EXPECT_NE(svg.find("</svg>"), std::string::npos);

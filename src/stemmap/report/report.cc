@@ -203,7 +203,7 @@ ReportSummary WriteReport(const ReportOptions& o, const ReportInput& in,
         "<td><b>{:.1f}</b></td><td>{:.1f}</td><td>{}</td><td>{}</td>{}</tr>\n",
         id, inside ? "" : " class=\"out\"", id, s.centre_xy.x(), s.centre_xy.y(),
         s.centre_xy.norm(), AzimuthDeg(s.centre_xy), 100 * s.dbh_m, 100 * s.dbh_sd_m, s.n_views,
-        HtmlEscape(fmt::format("{}", fmt::join(s.flags, " "))), picture);
+        HtmlEscape(fmt::format("{}", fmt::join(s.flags.Names(), " "))), picture);
   }
   std::string figures;
   for (const auto& [label, value] : in.figures) {

@@ -21,7 +21,7 @@ struct MeasureOptions {
   TangentOptions tangent;       // the silhouettes' fit
   BarkDepthOptions bark_depth;  // the fit's distance from the bark
   double min_dbh_cm = 7.0;      // stems thinner than this are not listed (a fit closed on a twig)
-  GroundOptions ground;  // the terrain under the plot, out to the search radius and 2 m more
+  GroundOptions ground;         // the terrain under the plot, out to the search radius and 2 m more
   // Drop cloud clusters whose silhouettes cannot be found in any view (a trunk shows two edges,
   // a leaf clump rarely does); false keeps them, flagged no_silhouette.
   bool require_silhouette = true;

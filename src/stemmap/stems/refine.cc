@@ -208,7 +208,7 @@ int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidate
     spdlog::debug("stems: larger cloud's stem alone at ({:.2f}, {:.2f}): verdict {}, sharp {}",
                   r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp);
     if (r.verdict != SilhouetteVerdict::kUse || !r.sharp) continue;
-    r.stem.flags.push_back("silhouette_only");
+    r.stem.flags.Set(StemFlag::kSilhouetteOnly);
     occluders->emplace_back(r.stem.centre_xy.x(), r.stem.centre_xy.y(), 0.5 * r.stem.dbh_m);
     kept->push_back(std::move(r.stem));
     ++added;
@@ -332,7 +332,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       }
     }
     if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == "tangent") {
-      s.flags.push_back(f.ok && f.two_sided_views < 3 ? "one_sided" : "no_silhouette");
+      s.flags.Set(f.ok && f.two_sided_views < 3 ? StemFlag::kOneSided : StemFlag::kNoSilhouette);
     }
     // A core stands alone only on clean silhouettes: both sides in a quarter of its views, on
     // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges).
@@ -353,13 +353,13 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       return RefinedStem{verdict, std::move(s), clean, whole, agrees, sharp};
     }
     // The silhouettes' views replace the cloud's count.
-    std::erase(s.flags, std::string("few_views"));
-    if (f.views < 4) s.flags.push_back("few_views");
-    if (s.depth_smeared) s.flags.push_back("depth_smeared");
+    s.flags.Clear(StemFlag::kFewViews);
+    if (f.views < 4) s.flags.Set(StemFlag::kFewViews);
+    if (s.depth_smeared) s.flags.Set(StemFlag::kDepthSmeared);
     // Over a quarter of the silhouettes beside a nearer stem: the width rests on the rest.
-    if (4 * f.hidden_sides > 2 * f.tried_views) s.flags.push_back("occluded");
+    if (4 * f.hidden_sides > 2 * f.tried_views) s.flags.Set(StemFlag::kOccluded);
     // Both silhouettes in too few views: the width rests on one side (a lower bound, mostly).
-    if (f.two_sided_views < 3) s.flags.push_back("one_sided");
+    if (f.two_sided_views < 3) s.flags.Set(StemFlag::kOneSided);
     // The bark places the circle along the line of sight better than the silhouettes' parallax.
     Eigen::Vector2d centre = f.centre;
     double radius = f.radius_m;

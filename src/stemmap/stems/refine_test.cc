@@ -154,7 +154,7 @@ TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
   EXPECT_EQ(tried, 3);
   ASSERT_EQ(kept.size(), 2u);
   EXPECT_DOUBLE_EQ(kept[1].centre_xy.x(), -8.11);
-  EXPECT_EQ(kept[1].flags, std::vector<std::string>{"silhouette_only"});
+  EXPECT_EQ(kept[1].flags.Names(), std::vector<std::string_view>{"silhouette_only"});
   ASSERT_EQ(occluders.size(), 2u);
   EXPECT_DOUBLE_EQ(occluders[1].z(), 0.0535);
 }

@@ -16,6 +16,32 @@
 
 namespace stemmap::stems {
 
+std::string_view FlagName(StemFlag flag) {
+  switch (flag) {
+    case StemFlag::kOccluded:
+      return "occluded";
+    case StemFlag::kOneSided:
+      return "one_sided";
+    case StemFlag::kFewViews:
+      return "few_views";
+    case StemFlag::kNoSilhouette:
+      return "no_silhouette";
+    case StemFlag::kDepthSmeared:
+      return "depth_smeared";
+    case StemFlag::kSilhouetteOnly:
+      return "silhouette_only";
+  }
+  return "unknown";
+}
+
+std::vector<std::string_view> StemFlags::Names() const {
+  std::vector<std::string_view> names;
+  for (int i = 0; i < kStemFlagCount; ++i) {
+    if (Has(static_cast<StemFlag>(i))) names.push_back(FlagName(static_cast<StemFlag>(i)));
+  }
+  return names;
+}
+
 void StemOptions::Check() const {
   if (!(breast_height_m > 0.3 && breast_height_m < 3.0)) {
     throw InputError(fmt::format("breast height {} m is outside 0.3-3 m", breast_height_m));
@@ -427,7 +453,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   s.n_views = static_cast<int>(views.size());
   s.lean_deg = lean_deg;
   if (lean_deg > o.confirm_lean_deg) s.weak_support = true;
-  if (s.n_views < 3) s.flags.push_back("few_views");
+  if (s.n_views < 3) s.flags.Set(StemFlag::kFewViews);
   if (s.pass_through > o.free_space_veto) {
     ++tally->vetoed_free_space;
     spdlog::debug("stems: part at ({:.2f}, {:.2f}) vetoed: {:.0f}% of rays pass through", c.x(),

@@ -1,9 +1,11 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstdint>
 #include <nlohmann/json.hpp>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "stemmap/dense/stereo.h"
@@ -65,6 +67,35 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     split_range_gap_m, min_points, min_slice_support_m2, weak_support_share, min_diameter_m,
     max_diameter_m, max_lean_deg, confirm_lean_deg, slice_half_m, free_space_veto, dbh_method)
 
+// What a reader of the tree list should know about how a stem was measured (trees.csv `flags`).
+enum class StemFlag : uint8_t {
+  kOccluded,        // over a quarter of its silhouettes lay beside a nearer stem
+  kOneSided,        // both silhouettes in fewer than three views: the width rests on one side
+  kFewViews,        // fewer than four views measured it
+  kNoSilhouette,    // no silhouette fit stands: the width is the cloud's
+  kDepthSmeared,    // its points were smeared along the line of sight (far stems)
+  kSilhouetteOnly,  // listed on its silhouettes where the cloud had no part
+};
+inline constexpr int kStemFlagCount = 6;
+// The flag's name in the outputs (`one_sided`, ...).
+std::string_view FlagName(StemFlag flag);
+
+// A set of StemFlag.
+class StemFlags {
+ public:
+  void Set(StemFlag f) { bits_ |= Bit(f); }
+  void Clear(StemFlag f) { bits_ &= static_cast<uint8_t>(~Bit(f)); }
+  bool Has(StemFlag f) const { return (bits_ & Bit(f)) != 0; }
+  bool empty() const { return bits_ == 0; }
+  // The names of the flags set, in the enum's order.
+  std::vector<std::string_view> Names() const;
+  bool operator==(const StemFlags&) const = default;
+
+ private:
+  static uint8_t Bit(StemFlag f) { return static_cast<uint8_t>(1u << static_cast<int>(f)); }
+  uint8_t bits_ = 0;
+};
+
 struct Stem {
   Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();  // plot frame, at breast height
   double ground_z_m = 0.0;
@@ -83,7 +114,7 @@ struct Stem {
   // a stem only if two-sided silhouettes confirm it. Also set for a part leaning further than
   // confirm_lean_deg.
   bool weak_support = false;
-  std::vector<std::string> flags;
+  StemFlags flags;
   // For a depth-smeared part: the stems its denser cores make, when it has two or more.
   std::vector<Stem> alternatives;
   // The same stem as a larger cloud gave it (AttachLargerCloudParts), tried when this part comes

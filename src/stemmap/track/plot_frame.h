@@ -38,9 +38,9 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(GroundFitOptions, min_range_m, m
 // ground is the floor of what the camera sees: shrubs, sapling crowns, litter and dead wood stand
 // on it, so over much of a natural plot the points show their leaves and only gaps show the
 // ground. Each cell's floor (a low percentile of its points) votes; of the planes through three
-// floors, the one most floors lie on wins, less three times those lying clearly below it (the ground has
-// nothing under it). The plane is then refitted to the floors it fits, weighting those above it
-// down, and to the points near it. `found` is false when no plane has enough support.
+// floors, the one most floors lie on wins, less three times those lying clearly below it (the
+// ground has nothing under it). The plane is then refitted to the floors it fits, weighting those
+// above it down, and to the points near it. `found` is false when no plane has enough support.
 GroundFit FitGround(const GroundFitOptions& options,
                     const std::vector<Eigen::Vector3d>& points_axis);
 
