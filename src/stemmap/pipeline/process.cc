@@ -43,15 +43,22 @@ void WriteProcessReport(const ProcessOptions& o, const track::TrackResult& tr,
     in.camera_path_xy.push_back(p.world_from_cam.translation.head<2>());
   }
   in.title = fmt::format("stemmap plot report: {}", video.filename().string());
-  const PlotFigures& f = r.figures;
-  in.figures = {{"stems listed (within 11 m)", fmt::format("{}", r.stems.size())},
-                {fmt::format("stems in the {:g}-m plot, DBH ≥ {:g} cm", o.plot_radius_m,
-                             o.measure.min_dbh_cm),
-                 fmt::format("{}", f.stems)},
-                {"stems per hectare", fmt::format("{:.0f}", f.stems_per_ha)},
-                {"basal area", fmt::format("{:.1f} m²/ha", f.basal_area_m2_per_ha)},
-                {"quadratic mean diameter", fmt::format("{:.1f} cm", f.qmd_cm)},
-                {"DBH method", o.measure.stems.dbh_method}};
+  const stems::PlotFigures& f = r.figures;
+  in.figures = {
+      {"stems listed (within 11 m)", fmt::format("{}", r.stems.size())},
+      {fmt::format("stems in the {:g}-m plot, DBH ≥ {:g} cm", o.plot_radius_m,
+                   o.measure.min_dbh_cm),
+       fmt::format("{}", f.stems)},
+      {"stems per hectare (95 % interval)",
+       fmt::format("{:.0f} ({:.0f}-{:.0f})", f.stems_per_ha, f.stems_per_ha_95.low,
+                   f.stems_per_ha_95.high)},
+      {"basal area (95 % interval)",
+       fmt::format("{:.1f} m²/ha ({:.1f}-{:.1f})", f.basal_area_m2_per_ha,
+                   f.basal_area_m2_per_ha_95.low, f.basal_area_m2_per_ha_95.high)},
+      {"quadratic mean diameter (95 % interval)",
+       fmt::format("{:.1f} cm ({:.1f}-{:.1f})", f.qmd_cm, f.qmd_cm_95.low, f.qmd_cm_95.high)},
+      {"stems expected behind nearer ones", fmt::format("{:.1f}", f.expected_hidden_stems)},
+      {"DBH method", o.measure.stems.dbh_method}};
   report::WriteReport(ro, in, out_dir);
 }
 
@@ -94,11 +101,14 @@ SavedCloud ReadSavedCloud(const std::filesystem::path& dir) {
 void WriteTreeOutputs(const ProcessOptions& o, const track::TrackResult& tr,
                       const std::vector<cv::Mat>& images, const std::filesystem::path& video,
                       const std::filesystem::path& out_dir, ProcessResult* r) {
-  r->figures = ComputePlotFigures(r->stems, o.plot_radius_m, o.measure.min_dbh_cm);
+  const stems::Visibility visibility =
+      stems::HiddenBehindStems(r->stems, tr.keyframes, tr.camera, o.plot_radius_m);
+  r->figures =
+      stems::ComputePlotFigures({o.plot_radius_m, o.measure.min_dbh_cm}, r->stems, visibility);
   WriteTreesCsv(out_dir / "trees.csv", r->stems, o.measure.stems.breast_height_m, o.plot_radius_m);
   WriteStemDetails(out_dir / "stems_detail.csv", r->stems);
   if (o.write_report) WriteProcessReport(o, tr, images, *r, video, out_dir);
-  r->summary["plot"] = PlotSummaryJson(r->figures, static_cast<int>(r->stems.size()),
+  r->summary["plot"] = PlotSummaryJson(r->figures, visibility, static_cast<int>(r->stems.size()),
                                        o.plot_radius_m, o.measure.min_dbh_cm);
   for (const auto& w : r->summary["plot"]["warnings"]) spdlog::warn("{}", w.get<std::string>());
 }

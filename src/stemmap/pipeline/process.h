@@ -10,6 +10,7 @@
 #include "stemmap/dense/dense.h"
 #include "stemmap/dense/trunk_mask.h"
 #include "stemmap/stems/measure.h"
+#include "stemmap/stems/plot_figures.h"
 #include "stemmap/stems/stems.h"
 #include "stemmap/track/track.h"
 
@@ -33,22 +34,15 @@ struct ProcessOptions {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(ProcessOptions, track, dense, mask, measure,
                                                 plot_radius_m, from_track, write_report)
 
-// Plot-level figures foresters use.
-struct PlotFigures {
-  int stems = 0;
-  double stems_per_ha = 0.0, basal_area_m2_per_ha = 0.0, qmd_cm = 0.0;
-};
-PlotFigures ComputePlotFigures(const std::vector<stems::Stem>& stems, double plot_radius_m,
-                               double min_dbh_cm);
-
 // summary.json's "plot" object: the figures, and `warnings` when the list says less than a plot
 // holds (no stem at all: not a stand at breast height, or one the method could not see).
-nlohmann::json PlotSummaryJson(const PlotFigures& figures, int listed_stems, double plot_radius_m,
-                               double min_dbh_cm);
+nlohmann::json PlotSummaryJson(const stems::PlotFigures& figures,
+                               const stems::Visibility& visibility, int listed_stems,
+                               double plot_radius_m, double min_dbh_cm);
 
 struct ProcessResult {
   std::vector<stems::Stem> stems;
-  PlotFigures figures;
+  stems::PlotFigures figures;
   nlohmann::json summary;
   std::string Table() const;  // plain-text tree list for the terminal
 };

@@ -10,26 +10,9 @@
 
 namespace stemmap::pipeline {
 
-PlotFigures ComputePlotFigures(const std::vector<stems::Stem>& stems, double plot_radius_m,
-                               double min_dbh_cm) {
-  PlotFigures f;
-  const double area_ha = M_PI * plot_radius_m * plot_radius_m / 1e4;
-  double sum_ba = 0, sum_d2 = 0;
-  for (const stems::Stem& s : stems) {
-    const double dbh_cm = 100 * s.dbh_m;
-    if (s.centre_xy.norm() > plot_radius_m || dbh_cm < min_dbh_cm) continue;
-    ++f.stems;
-    sum_ba += M_PI * std::pow(s.dbh_m / 2, 2);
-    sum_d2 += dbh_cm * dbh_cm;
-  }
-  f.stems_per_ha = f.stems / area_ha;
-  f.basal_area_m2_per_ha = sum_ba / area_ha;
-  f.qmd_cm = f.stems > 0 ? std::sqrt(sum_d2 / f.stems) : 0.0;
-  return f;
-}
-
-nlohmann::json PlotSummaryJson(const PlotFigures& figures, int listed_stems, double plot_radius_m,
-                               double min_dbh_cm) {
+nlohmann::json PlotSummaryJson(const stems::PlotFigures& figures,
+                               const stems::Visibility& visibility, int listed_stems,
+                               double plot_radius_m, double min_dbh_cm) {
   nlohmann::json warnings = nlohmann::json::array();
   if (listed_stems == 0) {
     warnings.push_back(
@@ -39,18 +22,37 @@ nlohmann::json PlotSummaryJson(const PlotFigures& figures, int listed_stems, dou
   } else if (figures.stems == 0) {
     warnings.push_back(fmt::format("no stem found within the {:.1f}-m plot radius", plot_radius_m));
   }
+  auto interval = [](const stems::Interval& i) { return nlohmann::json::array({i.low, i.high}); };
+  nlohmann::json hidden = nlohmann::json::array();
+  for (const stems::HiddenSector& h : visibility.sectors) {
+    hidden.push_back({{"behind_tree_id", h.tree + 1},
+                      {"azimuth_deg", h.azimuth_deg},
+                      {"half_width_deg", h.half_width_deg},
+                      {"from_m", h.from_m},
+                      {"to_m", h.to_m},
+                      {"area_m2", h.area_m2}});
+  }
   return {{"radius_m", plot_radius_m},
           {"min_dbh_cm", min_dbh_cm},
           {"stems", figures.stems},
           {"stems_per_ha", figures.stems_per_ha},
           {"basal_area_m2_per_ha", figures.basal_area_m2_per_ha},
           {"qmd_cm", figures.qmd_cm},
+          {"stems_per_ha_95", interval(figures.stems_per_ha_95)},
+          {"basal_area_m2_per_ha_95", interval(figures.basal_area_m2_per_ha_95)},
+          {"qmd_cm_95", interval(figures.qmd_cm_95)},
+          {"hidden_area_m2", visibility.hidden_area_m2},
+          {"hidden_share",
+           visibility.plot_area_m2 > 0 ? visibility.hidden_area_m2 / visibility.plot_area_m2 : 0.0},
+          {"expected_hidden_stems", figures.expected_hidden_stems},
+          {"hidden", hidden},
           {"warnings", warnings}};
 }
 
 void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::Stem>& stems,
                    double breast_height_m, double plot_radius_m) {
-  std::string s = "tree_id,x_m,y_m,z_m,dbh_cm,dbh_sd_cm,distance_m,azimuth_deg,n_views,flags\n";
+  std::string s =
+      "tree_id,x_m,y_m,z_m,dbh_cm,dbh_sd_cm,distance_m,azimuth_deg,n_views,confidence,flags\n";
   int id = 0;
   for (const stems::Stem& t : stems) {
     const double d = t.centre_xy.norm();
@@ -58,9 +60,10 @@ void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::S
     if (az < 0) az += 360.0;
     std::vector<std::string_view> flags = t.flags.Names();
     if (std::abs(d - plot_radius_m) < 0.5) flags.push_back("plot_edge");
-    s += fmt::format("{},{:.3f},{:.3f},{:.3f},{:.1f},{:.1f},{:.2f},{:.1f},{},{}\n", ++id,
-                     t.centre_xy.x(), t.centre_xy.y(), t.ground_z_m + breast_height_m,
-                     100 * t.dbh_m, 100 * t.dbh_sd_m, d, az, t.n_views, fmt::join(flags, ";"));
+    s +=
+        fmt::format("{},{:.3f},{:.3f},{:.3f},{:.1f},{:.1f},{:.2f},{:.1f},{},{:.2f},{}\n", ++id,
+                    t.centre_xy.x(), t.centre_xy.y(), t.ground_z_m + breast_height_m, 100 * t.dbh_m,
+                    100 * t.dbh_sd_m, d, az, t.n_views, t.confidence, fmt::join(flags, ";"));
   }
   WriteFileAtomic(path, s);
 }
@@ -90,9 +93,13 @@ std::string ProcessResult::Table() const {
                      t.centre_xy.norm(), az, 100 * t.dbh_m, 100 * t.dbh_sd_m, t.n_views,
                      fmt::join(t.flags.Names(), ";"));
   }
+  const stems::PlotFigures& f = figures;
   s += fmt::format(
-      "{} stems in the plot: {:.0f} stems/ha, basal area {:.1f} m²/ha, QMD {:.1f} cm\n",
-      figures.stems, figures.stems_per_ha, figures.basal_area_m2_per_ha, figures.qmd_cm);
+      "{} stems in the plot: {:.0f} stems/ha ({:.0f}-{:.0f}), basal area {:.1f} m²/ha "
+      "({:.1f}-{:.1f}), QMD {:.1f} cm ({:.1f}-{:.1f}); 95 % intervals\n",
+      f.stems, f.stems_per_ha, f.stems_per_ha_95.low, f.stems_per_ha_95.high,
+      f.basal_area_m2_per_ha, f.basal_area_m2_per_ha_95.low, f.basal_area_m2_per_ha_95.high,
+      f.qmd_cm, f.qmd_cm_95.low, f.qmd_cm_95.high);
   return s;
 }
 

@@ -16,17 +16,18 @@ namespace {
 namespace fs = std::filesystem;
 
 TEST(PlotSummaryJson, WarnsWhenNoStemWasFound) {
-  PlotFigures f;
-  const nlohmann::json none = PlotSummaryJson(f, 0, 10.0, 7.0);
+  stems::PlotFigures f;
+  const stems::Visibility v;
+  const nlohmann::json none = PlotSummaryJson(f, v, 0, 10.0, 7.0);
   ASSERT_EQ(none["warnings"].size(), 1u);
   EXPECT_NE(none["warnings"][0].get<std::string>().find("no stem of 7 cm"), std::string::npos);
-  const nlohmann::json outside = PlotSummaryJson(f, 2, 10.0, 7.0);  // listed, none within 10 m
+  const nlohmann::json outside = PlotSummaryJson(f, v, 2, 10.0, 7.0);  // listed, none within 10 m
   ASSERT_EQ(outside["warnings"].size(), 1u);
   EXPECT_NE(outside["warnings"][0].get<std::string>().find("10.0-m plot radius"),
             std::string::npos);
   f.stems = 2;
   f.stems_per_ha = 63.7;
-  const nlohmann::json some = PlotSummaryJson(f, 2, 10.0, 7.0);
+  const nlohmann::json some = PlotSummaryJson(f, v, 2, 10.0, 7.0);
   EXPECT_TRUE(some["warnings"].empty());
   EXPECT_EQ(some["stems"].get<int>(), 2);
   EXPECT_DOUBLE_EQ(some["stems_per_ha"].get<double>(), 63.7);

@@ -17,6 +17,7 @@ void MeasureOptions::Check() const {
   bark_depth.Check();
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
   ground.Check();
+  uncertainty.Check();
   if (!(one_sided_min_cloud_radius_m >= 0)) {
     throw InputError("the cloud radius a one-sided fit may widen must not be negative");
   }
@@ -74,6 +75,11 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
     sr.larger_cloud_parts =
         AttachLargerCloudParts(std::move(more.stems), o.larger_cloud_part_gap_m, &sr.stems);
   }
+  // The silhouettes are found at the video's resolution where it was given.
+  const double silhouette_focal_px =
+      in.camera->fx * (in.gray_full.empty() || in.gray_full[0].empty()
+                           ? 1.0
+                           : static_cast<double>(in.gray_full[0].cols) / in.camera->width);
   RefineWithTangentRays(o, *in.camera, *in.keyframes, std::move(in.gray_full), *in.bgr, &sr.stems,
                         std::move(larger_only));
   const size_t below =
@@ -81,6 +87,10 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
   if (below > 0) spdlog::info("stems: {} below {:.0f} cm DBH left out", below, o.min_dbh_cm);
   // Nearest first (docs/output-format.md's tree_id): fits move stems, and stems found late join.
   std::ranges::stable_sort(sr.stems, NearerTheCentre);
+  for (Stem& s : sr.stems) {
+    s.dbh_sd_m = DbhSd(o.uncertainty, s, s.centre_xy.norm() / silhouette_focal_px);
+    s.confidence = DetectionConfidence(o.uncertainty, s);
+  }
   MeasureResult r;
   r.summary = sr.Summary();
   r.summary["dbh_method"] = o.stems.dbh_method;

@@ -13,6 +13,7 @@
 #include "stemmap/stems/ground.h"
 #include "stemmap/stems/stems.h"
 #include "stemmap/stems/tangent.h"
+#include "stemmap/stems/uncertainty.h"
 
 namespace stemmap::stems {
 
@@ -21,7 +22,9 @@ struct MeasureOptions {
   TangentOptions tangent;       // the silhouettes' fit
   BarkDepthOptions bark_depth;  // the fit's distance from the bark
   double min_dbh_cm = 7.0;      // stems thinner than this are not listed (a fit closed on a twig)
-  GroundOptions ground;         // the terrain under the plot, out to the search radius and 2 m more
+  // The terrain under the plot, out to the search radius and 2 m more.
+  GroundOptions ground;
+  UncertaintyOptions uncertainty;  // each stem's DBH SD and detection confidence
   // Drop cloud clusters whose silhouettes cannot be found in any view (a trunk shows two edges,
   // a leaf clump rarely does); false keeps them, flagged no_silhouette.
   bool require_silhouette = true;
@@ -65,7 +68,7 @@ struct MeasureOptions {
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
-    MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, ground, require_silhouette,
+    MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, ground, uncertainty, require_silhouette,
     keep_bark_confirmed_cloud, one_sided_max_over_cloud, one_sided_min_cloud_radius_m,
     min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
     larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc)

@@ -100,6 +100,7 @@ struct Stem {
   Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();  // plot frame, at breast height
   double ground_z_m = 0.0;
   double dbh_m = 0.0, dbh_sd_m = 0.0;
+  double confidence = 1.0;  // the chance that it is a stem (DetectionConfidence)
   double dbh_slice_m = 0.0, dbh_circle_m = 0.0;        // every estimator, whichever is reported
   double dbh_tangent_m = 0.0, dbh_tangent_sd_m = 0.0;  // 0 when the tangent fit failed
   int n_points = 0, n_views = 0;

@@ -1,0 +1,63 @@
+#pragma once
+
+// The plot figures foresters use (stems/ha, basal area/ha, QMD), each with a 95 % interval, and
+// the ground the camera never saw past nearer stems, which hides stems the list cannot hold.
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <vector>
+
+#include "stemmap/camera/camera.h"
+#include "stemmap/core/pose.h"
+#include "stemmap/stems/stems.h"
+
+namespace stemmap::stems {
+
+// Ground within the plot hidden behind one listed stem from every keyframe that looked its way.
+struct HiddenSector {
+  int tree = 0;                     // index of the stem in the list
+  double azimuth_deg = 0.0;         // its bearing from the plot centre
+  double half_width_deg = 0.0;      // of the hidden ground, about that bearing
+  double from_m = 0.0, to_m = 0.0;  // distances from the plot centre
+  double area_m2 = 0.0;
+};
+
+struct Visibility {
+  std::vector<HiddenSector> sectors;  // nearest stems first
+  double hidden_area_m2 = 0.0;        // within the plot radius
+  double plot_area_m2 = 0.0;
+};
+
+// Which ground of the plot (radius `plot_radius_m`) no keyframe saw: a point is seen from a
+// keyframe whose view holds it when no listed stem (a circle of its DBH at breast height) stands
+// on the line between them. Sampled on a polar grid (0.1 m, 0.5°).
+Visibility HiddenBehindStems(const std::vector<Stem>& trees,
+                             const std::vector<StampedPose>& keyframes, const PinholeCamera& camera,
+                             double plot_radius_m);
+
+struct Interval {
+  double low = 0.0, high = 0.0;
+};
+
+struct PlotFigureOptions {
+  double plot_radius_m = 10.0;  // figures count stems within this radius
+  double min_dbh_cm = 7.0;      // and at least this thick
+  int interval_draws = 4000;    // draws of the intervals' simulation
+  uint64_t seed = 1;            // of those draws
+  void Check() const;
+};
+
+struct PlotFigures {
+  int stems = 0;  // listed within the plot radius and at least the minimum DBH
+  double stems_per_ha = 0.0, basal_area_m2_per_ha = 0.0, qmd_cm = 0.0;
+  // 95 % intervals of the plot's true figures, drawing each listed stem's presence (its
+  // confidence) and DBH (its SD), and the stems the hidden ground holds at the density of the
+  // ground seen (their DBH drawn from the listed ones).
+  Interval stems_per_ha_95, basal_area_m2_per_ha_95, qmd_cm_95;
+  double expected_hidden_stems = 0.0;
+};
+
+// The figures of `trees` (nearest first) for the plot; `visibility` gives the hidden ground.
+PlotFigures ComputePlotFigures(const PlotFigureOptions& options, const std::vector<Stem>& trees,
+                               const Visibility& visibility);
+
+}  // namespace stemmap::stems

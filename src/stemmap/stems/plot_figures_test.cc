@@ -1,0 +1,87 @@
+#include "stemmap/stems/plot_figures.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+namespace stemmap::stems {
+namespace {
+
+// A full turn of keyframes on the 1-m arm, looking outward, every 2°.
+std::vector<StampedPose> Turn() {
+  std::vector<StampedPose> keyframes;
+  for (int k = 0; k < 180; ++k) {
+    const double th = 2.0 * k * M_PI / 180.0;
+    Eigen::Matrix3d rot;  // columns: camera x (right), y (down), z (forward) in the plot frame
+    rot << std::sin(th), 0, std::cos(th), -std::cos(th), 0, std::sin(th), 0, -1, 0;
+    keyframes.push_back(
+        {0.2 * k, {Eigen::Quaterniond(rot), Eigen::Vector3d(std::cos(th), std::sin(th), 1.3)}});
+  }
+  return keyframes;
+}
+
+Stem At(double x, double y, double dbh_m, double confidence = 1.0, double sd_m = 0.0) {
+  Stem s;
+  s.centre_xy = {x, y};
+  s.dbh_m = dbh_m;
+  s.confidence = confidence;
+  s.dbh_sd_m = sd_m;
+  return s;
+}
+
+const PinholeCamera kCamera = PinholeCamera::FromHfov(960, 540, 67.0);
+
+TEST(HiddenBehindStems, ANearWideStemHidesASectorBehindIt) {
+  const Visibility none = HiddenBehindStems({}, Turn(), kCamera, 10.0);
+  EXPECT_EQ(none.hidden_area_m2, 0.0);
+  EXPECT_NEAR(none.plot_area_m2, M_PI * 100, 1e-9);
+  const Visibility one = HiddenBehindStems({At(3.0, 0.0, 0.6)}, Turn(), kCamera, 10.0);
+  ASSERT_EQ(one.sectors.size(), 1u);
+  const HiddenSector& h = one.sectors[0];
+  EXPECT_EQ(h.tree, 0);
+  EXPECT_NEAR(h.azimuth_deg, 0.0, 1e-9);
+  EXPECT_GT(h.from_m, 3.0);
+  EXPECT_GT(h.area_m2, 0.0);
+  EXPECT_NEAR(one.hidden_area_m2, h.area_m2, 1e-9);
+  // The arm sees round a thinner stem sooner: its shadow is shorter.
+  const double thin = HiddenBehindStems({At(3.0, 0.0, 0.2)}, Turn(), kCamera, 10.0).hidden_area_m2;
+  EXPECT_LT(thin, h.area_m2);
+  // Ground beyond the plot radius is not counted.
+  EXPECT_LT(HiddenBehindStems({At(9.5, 0.0, 0.6)}, Turn(), kCamera, 10.0).hidden_area_m2, 0.5);
+}
+
+TEST(ComputePlotFigures, CertainStemsGiveTheirFiguresAndNarrowIntervals) {
+  const std::vector<Stem> trees = {At(3, 0, 0.30), At(0, 5, 0.40), At(-6, -2, 0.20),
+                                   At(11, 0, 0.50)};  // beyond the plot
+  PlotFigureOptions o;
+  const PlotFigures f = ComputePlotFigures(o, trees, Visibility{{}, 0.0, M_PI * 100});
+  EXPECT_EQ(f.stems, 3);
+  const double area_ha = M_PI * 100 / 1e4;
+  EXPECT_NEAR(f.stems_per_ha, 3 / area_ha, 1e-9);
+  EXPECT_NEAR(f.basal_area_m2_per_ha, M_PI / 4 * (0.09 + 0.16 + 0.04) / area_ha, 1e-9);
+  EXPECT_NEAR(f.qmd_cm, std::sqrt((900 + 1600 + 400) / 3.0), 1e-9);
+  EXPECT_NEAR(f.stems_per_ha_95.low, f.stems_per_ha, 1e-9);
+  EXPECT_NEAR(f.stems_per_ha_95.high, f.stems_per_ha, 1e-9);
+  EXPECT_NEAR(f.basal_area_m2_per_ha_95.low, f.basal_area_m2_per_ha, 1e-9);
+  EXPECT_EQ(f.expected_hidden_stems, 0.0);
+}
+
+TEST(ComputePlotFigures, DoubtAndHiddenGroundWidenTheIntervals) {
+  const std::vector<Stem> trees = {At(3, 0, 0.30, 0.6, 0.03), At(0, 5, 0.40, 1.0, 0.02),
+                                   At(-6, -2, 0.20, 0.9, 0.01), At(2, -7, 0.35, 1.0, 0.01)};
+  const Visibility hidden{{}, 60.0, M_PI * 100};
+  const PlotFigures f = ComputePlotFigures(PlotFigureOptions(), trees, hidden);
+  EXPECT_LT(f.stems_per_ha_95.low, f.stems_per_ha) << "a doubtful stem may be none";
+  EXPECT_GT(f.stems_per_ha_95.high, f.stems_per_ha) << "the hidden ground may hold stems";
+  EXPECT_NEAR(f.expected_hidden_stems, 4 * 60.0 / (M_PI * 100 - 60.0), 1e-9);
+  EXPECT_LT(f.basal_area_m2_per_ha_95.low, f.basal_area_m2_per_ha);
+  EXPECT_GT(f.basal_area_m2_per_ha_95.high, f.basal_area_m2_per_ha);
+  EXPECT_LT(f.qmd_cm_95.low, f.qmd_cm_95.high);
+  // The draws are seeded: the same input gives the same intervals.
+  const PlotFigures again = ComputePlotFigures(PlotFigureOptions(), trees, hidden);
+  EXPECT_EQ(again.basal_area_m2_per_ha_95.low, f.basal_area_m2_per_ha_95.low);
+}
+
+}  // namespace
+}  // namespace stemmap::stems
