@@ -16,6 +16,10 @@ print(' '.join(str(100000 + int.from_bytes(h[3 * i:3 * i + 3], 'big') % 900000)
                for i in range(int(sys.argv[2]))))" "$commit" "$FRESH")
   echo "fresh seeds from commit ${commit:0:7}: $seeds" >&2
 fi
+# Fresh plots are rendered at 15 fps: the tracker (track_fps 15) tracks the same instants of a
+# 30-fps video, so only the other frames' render time is saved (measured on a 14-s clip: 153 of
+# 162 keyframes at the same instants, 7 mm apart on average; docs/benchmarks.md).
+if [ -n "${FRESH:-}" ] && [ -z "${SIM_ARGS+x}" ]; then SIM_ARGS="--fps 15"; fi
 kinds=${KINDS:-managed natural}
 height_source=${HEIGHT_SOURCE:-measured}
 mkdir -p "$data"

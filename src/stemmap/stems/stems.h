@@ -55,7 +55,7 @@ struct StemOptions {
   double free_space_veto = 0.5;
   // tangent (rays tangent to the silhouettes, the slice width where no silhouette fits; the
   // default, measured best), slice (the paper's robust width across the view) or circle (fitted
-  // to the slice). See docs/benchmarks.md.
+  // to the slice). See docs/benchmarks-log.md.
   std::string dbh_method = "tangent";
   void Check() const;
 };
