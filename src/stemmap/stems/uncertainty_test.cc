@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "stemmap/core/check_message.h"
 
 namespace stemmap::stems {
@@ -26,12 +28,16 @@ TEST(DbhSd, GrowsWithWhatTheWidthCannotCheck) {
   EXPECT_GT(DbhSd(o, Fitted(), 2 * px_m), clean) << "a pixel covers more on a far stem";
   Stem gap = Fitted();
   gap.dbh_slice_m = 0.22;  // the cloud saw much less of it
-  EXPECT_GT(DbhSd(o, gap, px_m), clean + 0.02);
+  EXPECT_NEAR(DbhSd(o, gap, px_m), std::hypot(clean, o.estimator_gap_share * 0.08), 1e-9);
+  // Each flag adds its share of the DBH.
+  UncertaintyOptions shares = o;
+  shares.one_sided_share = shares.occluded_share = shares.depth_smeared_share =
+      shares.few_views_share = 0.1;
   for (StemFlag f :
        {StemFlag::kOneSided, StemFlag::kOccluded, StemFlag::kDepthSmeared, StemFlag::kFewViews}) {
     Stem flagged = Fitted();
     flagged.flags.Set(f);
-    EXPECT_GT(DbhSd(o, flagged, px_m), clean) << FlagName(f);
+    EXPECT_NEAR(DbhSd(shares, flagged, px_m), std::hypot(clean, 0.1 * 0.30), 1e-9) << FlagName(f);
   }
   // The cloud's width alone: its own spread and a share of the DBH.
   Stem cloud = Fitted();
