@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "stemmap/core/io.h"
+#include "stemmap/core/run_folder.h"
 
 namespace stemmap {
 namespace {
@@ -32,12 +33,20 @@ fs::path Dir() {
   return dir;
 }
 
-// Runs stemmap with `args`; with `signal` (INT, TERM), sends it that signal after `after_s`.
-Outcome RunStemmap(const std::string& args, const std::string& signal = "", double after_s = 0.0) {
+// Runs stemmap with `args`; with `signal` (INT, TERM), sends it that signal once `started`
+// exists (a file the run makes after its start-up, so a loaded machine's slow start does not
+// meet the signal before the handler), then after `after_s`.
+Outcome RunStemmap(const std::string& args, const std::string& signal = "", double after_s = 0.0,
+                   const fs::path& started = {}) {
   const fs::path err = Dir() / "stderr.txt";
   std::string cmd = fmt::format("'{}' {} > /dev/null 2> '{}'", STEMMAP_BINARY, args, err.string());
   if (!signal.empty()) {
-    cmd += fmt::format(" & pid=$!; sleep {}; kill -{} $pid; wait $pid", after_s, signal);
+    cmd += " & pid=$!;";
+    if (!started.empty()) {
+      cmd += fmt::format(" for i in $(seq 600); do [ -e '{}' ] && break; sleep 0.05; done;",
+                         started.string());
+    }
+    cmd += fmt::format(" sleep {}; kill -{} $pid; wait $pid", after_s, signal);
   }
   const auto t0 = std::chrono::steady_clock::now();
   const int status = std::system(cmd.c_str());
@@ -228,9 +237,11 @@ TEST_F(BadInput, AStoppedRunSaysWhatWasKeptAndLeavesTheEarlierOne) {
   const std::string before = ReadFileToString(out / "trajectory.tum");
   for (const auto& [signal, code] : {std::pair{"INT", 130}, std::pair{"TERM", 143}}) {
     SCOPED_TRACE(signal);
-    // The track of the 9-s clip takes a few seconds; the signal comes while it runs.
-    const Outcome o = RunStemmap(
-        fmt::format("track {} --hfov 65 --out {}", Quote(Plot()), Quote(out)), signal, 0.7);
+    // The track of the 9-s clip takes a few seconds; the signal comes while it runs, once its
+    // staging folder is there.
+    const Outcome o =
+        RunStemmap(fmt::format("track {} --hfov 65 --out {}", Quote(Plot()), Quote(out)), signal,
+                   0.3, StagingFolderFor(out));
     EXPECT_EQ(o.exit_code, code) << o.stderr_text;
     EXPECT_NE(LastLine(o.stderr_text).find("interrupted: nothing of this run was written"),
               std::string::npos)
