@@ -50,6 +50,9 @@ Visibility HiddenBehindStems(const std::vector<Stem>& trees,
   std::vector<HiddenSector> by_tree(trees.size());
   std::vector<double> az_min(trees.size(), 1e9), az_max(trees.size(), -1e9);
   std::vector<double> from_m(trees.size(), 1e9);
+  std::vector<double> bearing_from_centre;  // of each listed stem, once
+  for (const Stem& s : trees)
+    bearing_from_centre.push_back(std::atan2(s.centre_xy.y(), s.centre_xy.x()));
   for (int a = 0; a < n_az; ++a) {
     const double az = (a + 0.5) * kAzimuthStepDeg * M_PI / 180.0;
     for (double r = 0.5 * kRadialStepM; r < plot_radius_m; r += kRadialStepM) {
@@ -76,9 +79,8 @@ Visibility HiddenBehindStems(const std::vector<Stem>& trees,
       int best = -1;
       double best_apart = 1e9;
       for (size_t i = 0; i < trees.size(); ++i) {
-        const Eigen::Vector2d& c = trees[i].centre_xy;
-        if (c.norm() >= r) continue;
-        const double apart = AngleApart(az, std::atan2(c.y(), c.x()));
+        if (trees[i].centre_xy.norm() >= r) continue;
+        const double apart = AngleApart(az, bearing_from_centre[i]);
         if (apart < best_apart) best_apart = apart, best = static_cast<int>(i);
       }
       if (best < 0) continue;
@@ -86,8 +88,7 @@ Visibility HiddenBehindStems(const std::vector<Stem>& trees,
       h.area_m2 += cell_m2;
       from_m[best] = std::min(from_m[best], r);
       h.to_m = std::max(h.to_m, r);
-      const Eigen::Vector2d& c = trees[best].centre_xy;
-      const double off = std::remainder(az - std::atan2(c.y(), c.x()), 2 * M_PI);
+      const double off = std::remainder(az - bearing_from_centre[best], 2 * M_PI);
       az_min[best] = std::min(az_min[best], off);
       az_max[best] = std::max(az_max[best], off);
     }
