@@ -10,7 +10,7 @@ shift || true
 targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=(tum track_folder calibration layout truth trees_csv options cloud)
 CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DSTEMMAP_FUZZ=ON -DSTEMMAP_BUILD_TESTS=OFF \
-  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" > /dev/null
+  -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" -DCMAKE_UNITY_BUILD=ON > /dev/null
 cmake --build build-fuzz --target "${targets[@]/%/_fuzzer}"
 mkdir -p build-fuzz/findings
 for t in "${targets[@]}"; do

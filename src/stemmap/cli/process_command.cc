@@ -11,6 +11,38 @@ namespace stemmap::cli {
 
 namespace {
 
+// Where the plot lies on the map (docs/output-format.md, "Georeference").
+void AddGeoreferenceFlags(CLI::App* sub, gis::GeoreferenceOptions* g) {
+  sub->add_option_function<std::vector<double>>(
+         "--plot-centre",
+         [g](const std::vector<double>& v) {
+           g->centre_lat_deg = v[0];
+           g->centre_lon_deg = v[1];
+         },
+         "Plot centre in WGS 84, LAT,LON in degrees (a GPS reading); needs --first-bearing. The "
+         "GIS files are then in WGS 84, the projected columns and cloud.las in the UTM zone")
+      ->delimiter(',')
+      ->expected(2);
+  sub->add_option_function<std::vector<double>>(
+         "--plot-centre-xy",
+         [g](const std::vector<double>& v) {
+           g->centre_easting_m = v[0];
+           g->centre_northing_m = v[1];
+         },
+         "Plot centre in a projected CRS, E,N in metres; needs --crs and --first-bearing")
+      ->delimiter(',')
+      ->expected(2);
+  sub->add_option("--crs", g->crs, "CRS of --plot-centre-xy, e.g. EPSG:25830 (metres)");
+  sub->add_option_function<double>(
+      "--first-bearing", [g](double v) { g->first_bearing_deg = v; },
+      "Compass bearing of the first frame's view, degrees clockwise from north; fills "
+      "bearing_deg and turns the map to north");
+  sub->add_option("--declination", g->declination_deg,
+                  "Magnetic declination, degrees east positive, when --first-bearing was read off "
+                  "a magnetic compass")
+      ->capture_default_str();
+}
+
 // The tree list's own flags, shared by process and stems.
 void AddMeasureFlags(CLI::App* sub, pipeline::ProcessOptions* opt) {
   sub->add_option("--plot-radius", opt->plot_radius_m, "Plot radius for the plot figures (m)")
@@ -29,6 +61,7 @@ void AddMeasureFlags(CLI::App* sub, pipeline::ProcessOptions* opt) {
   sub->add_flag("--require-silhouette,!--keep-unconfirmed", opt->measure.require_silhouette,
                 "Drop cloud parts whose silhouettes were not found (default); "
                 "--keep-unconfirmed keeps them, flagged no_silhouette");
+  AddGeoreferenceFlags(sub, &opt->georef);
   sub->add_flag("--report,!--no-report", opt->write_report,
                 "Write map.svg and report.html with a picture of each stem at breast height "
                 "(default)");

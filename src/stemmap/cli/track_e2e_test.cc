@@ -8,8 +8,10 @@
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
+#include "stemmap/dense/cloud_io.h"
 #include "stemmap/eval/evaluate.h"
 #include "stemmap/eval/plot_io.h"
+#include "stemmap/gis/las.h"
 #include "stemmap/pipeline/process.h"
 #include "stemmap/sim/simulate.h"
 #include "stemmap/track/track.h"
@@ -105,11 +107,24 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   sim::RunSimulate(so);
   pipeline::ProcessOptions o;
   o.track = OptionsFromTruth(dir / "truth.json");
+  o.georef.centre_easting_m = 545000.0;
+  o.georef.centre_northing_m = 4700000.0;
+  o.georef.crs = "EPSG:25830";
+  o.georef.first_bearing_deg = 212.0;
   const pipeline::ProcessResult r = pipeline::RunProcess(o, dir / "video.mp4", dir / "out");
   for (const char* f : {"trees.csv", "summary.json", "cloud.ply", "stems_detail.csv",
-                        "trajectory.tum", "process_options.json", "map.svg", "report.html"}) {
+                        "trajectory.tum", "process_options.json", "map.svg", "report.html",
+                        "trees.gpkg", "trees.geojson", "cloud.las"}) {
     EXPECT_TRUE(fs::exists(dir / "out" / f)) << f;
   }
+  // The cloud as LAS holds every point of cloud.ply, placed on the map.
+  const gis::LasFile las = gis::ReadLas(dir / "out" / "cloud.las");
+  const std::vector<dense::CloudPoint> cloud = dense::ReadCloudPly(dir / "out" / "cloud.ply");
+  ASSERT_EQ(las.points.size(), cloud.size());
+  ASSERT_FALSE(cloud.empty());
+  const Eigen::Vector2d en = gis::EastNorth(212.0, 0.0, cloud[0].world.head<2>().cast<double>());
+  EXPECT_NEAR(las.points[0].xyz.x(), 545000.0 + en.x(), 0.001);
+  EXPECT_NEAR(las.points[0].xyz.y(), 4700000.0 + en.y(), 0.001);
   // The report shows every tree in a keyframe (the track saw each of them).
   ASSERT_FALSE(r.stems.empty());
   for (size_t i = 1; i <= r.stems.size(); ++i) {

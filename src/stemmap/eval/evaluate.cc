@@ -7,13 +7,12 @@
 #include <numbers>
 
 #include "stemmap/core/error.h"
+#include "stemmap/core/units.h"
 #include "stemmap/eval/hungarian.h"
 
 namespace stemmap::eval {
 
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 DbhStats ComputeDbhStats(const std::vector<std::pair<double, double>>& pred_truth_cm) {
   DbhStats s;

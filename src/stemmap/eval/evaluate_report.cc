@@ -8,13 +8,12 @@
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
+#include "stemmap/core/units.h"
 #include "stemmap/eval/evaluate.h"
 
 namespace stemmap::eval {
 
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 std::string MatchTable(const MatchStats& s) {
   const DbhStats& d = s.dbh;

@@ -13,6 +13,9 @@
 #include "stemmap/core/pose.h"
 #include "stemmap/core/run_folder.h"
 #include "stemmap/dense/cloud_io.h"
+#include "stemmap/gis/gis_files.h"
+#include "stemmap/gis/las.h"
+#include "stemmap/gis/tree_table.h"
 #include "stemmap/report/report.h"
 #include "stemmap/track/track_io.h"
 
@@ -24,9 +27,19 @@ void ProcessOptions::Check() const {
   measure.Check();
   if (!mask.model.empty()) mask.Check();
   if (!(plot_radius_m > 0)) throw InputError("--plot-radius must be positive");
+  georef.Check();
 }
 
 namespace {
+
+// The camera centres of every tracked frame (keyframes where frames were not kept), plot frame.
+std::vector<Eigen::Vector2d> CameraPathXy(const track::TrackResult& tr) {
+  std::vector<Eigen::Vector2d> xy;
+  for (const StampedPose& p : tr.frames.empty() ? tr.keyframes : tr.frames) {
+    xy.push_back(p.world_from_cam.translation.head<2>());
+  }
+  return xy;
+}
 
 void WriteProcessReport(const ProcessOptions& o, const track::TrackResult& tr,
                         const std::vector<cv::Mat>& images, const ProcessResult& r,
@@ -39,9 +52,7 @@ void WriteProcessReport(const ProcessOptions& o, const track::TrackResult& tr,
   in.camera = &tr.camera;
   in.keyframes = &tr.keyframes;
   in.images = &images;
-  for (const StampedPose& p : tr.frames.empty() ? tr.keyframes : tr.frames) {
-    in.camera_path_xy.push_back(p.world_from_cam.translation.head<2>());
-  }
+  in.camera_path_xy = CameraPathXy(tr);
   in.title = fmt::format("stemmap plot report: {}", video.filename().string());
   const stems::PlotFigures& f = r.figures;
   in.figures = {
@@ -98,24 +109,35 @@ SavedCloud ReadSavedCloud(const std::filesystem::path& dir) {
 
 }  // namespace
 
-void WriteTreeOutputs(const ProcessOptions& o, const track::TrackResult& tr,
-                      const std::vector<cv::Mat>& images, const std::filesystem::path& video,
+void WriteTreeOutputs(const ProcessOptions& o, const TreeOutputsInput& in,
                       const std::filesystem::path& out_dir, ProcessResult* r) {
+  const track::TrackResult& tr = *in.track;
   const stems::Visibility visibility =
       stems::HiddenBehindStems(r->stems, tr.keyframes, tr.camera, o.plot_radius_m);
   r->figures =
       stems::ComputePlotFigures({o.plot_radius_m, o.measure.min_dbh_cm}, r->stems, visibility);
-  WriteTreesCsv(out_dir / "trees.csv", r->stems, o.measure.stems.breast_height_m, o.plot_radius_m);
+  gis::TreeRowOptions row_options;
+  row_options.breast_height_m = o.measure.stems.breast_height_m;
+  row_options.plot_radius_m = o.plot_radius_m;
+  const std::vector<gis::TreeRow> rows = gis::TreeRows(row_options, r->stems, *in.georef);
+  gis::WriteTreesCsv(out_dir / "trees.csv", rows);
   WriteStemDetails(out_dir / "stems_detail.csv", r->stems);
-  if (o.write_report) WriteProcessReport(o, tr, images, *r, video, out_dir);
+  gis::WriteGisFiles(*in.georef, {&rows, CameraPathXy(tr), o.plot_radius_m}, out_dir);
+  std::vector<double> keyframe_t_s;
+  for (const StampedPose& k : tr.keyframes) keyframe_t_s.push_back(k.t_s);
+  gis::WriteLas(out_dir / "cloud.las", *in.cloud, keyframe_t_s, *in.georef);
+  if (o.write_report) WriteProcessReport(o, tr, *in.images, *r, in.video, out_dir);
   r->summary["plot"] = PlotSummaryJson(r->figures, visibility, static_cast<int>(r->stems.size()),
                                        o.plot_radius_m, o.measure.min_dbh_cm);
+  r->summary["georeference"] = o.georef;
+  r->summary["georeference"]["gis_crs"] = in.georef->Describe();
   for (const auto& w : r->summary["plot"]["warnings"]) spdlog::warn("{}", w.get<std::string>());
 }
 
 ProcessResult RunStems(const ProcessOptions& o, const std::filesystem::path& video,
                        const std::filesystem::path& from_dir, const std::filesystem::path& out) {
   o.Check();
+  const gis::Georeference georef(o.georef);  // an unknown CRS fails here, before any work
   StagedRunFolder folder(out);
   const std::filesystem::path& out_dir = folder.staging();
   const auto t0 = std::chrono::steady_clock::now();
@@ -138,7 +160,7 @@ ProcessResult RunStems(const ProcessOptions& o, const std::filesystem::path& vid
   stems::MeasureResult mr = stems::MeasureTrees(o.measure, std::move(min));
   ProcessResult r;
   r.stems = std::move(mr.trees);
-  WriteTreeOutputs(o, tr, tr.keyframe_images, video, out_dir, &r);
+  WriteTreeOutputs(o, {&tr, &tr.keyframe_images, &cloud.points, &georef, video}, out_dir, &r);
   nlohmann::json& s = r.summary;
   tr.summary["reused_from"] = std::filesystem::absolute(from_dir).string();
   s["track"] = tr.summary;
@@ -157,6 +179,7 @@ ProcessResult RunStems(const ProcessOptions& o, const std::filesystem::path& vid
 ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& video,
                          const std::filesystem::path& out) {
   o.Check();
+  const gis::Georeference georef(o.georef);  // an unknown CRS fails here, before any work
   // Everything is written to a staging folder and moved into `out` at the end; an unusable
   // `out` is refused here, before the long work.
   StagedRunFolder folder(out, o.from_track);
@@ -207,7 +230,7 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
 
   ProcessResult r;
   r.stems = std::move(mr.trees);
-  WriteTreeOutputs(o, tr, din.images, video, out_dir, &r);
+  WriteTreeOutputs(o, {&tr, &din.images, &dr.points, &georef, video}, out_dir, &r);
   nlohmann::json& s = r.summary;
   s["track"] = tr.summary;
   s["dense"] = dr.summary;

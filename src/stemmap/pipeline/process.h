@@ -9,6 +9,7 @@
 
 #include "stemmap/dense/dense.h"
 #include "stemmap/dense/trunk_mask.h"
+#include "stemmap/gis/georef.h"
 #include "stemmap/stems/measure.h"
 #include "stemmap/stems/plot_figures.h"
 #include "stemmap/stems/stems.h"
@@ -19,9 +20,10 @@ namespace stemmap::pipeline {
 struct ProcessOptions {
   track::TrackOptions track;
   dense::DenseOptions dense;
-  dense::DnnMaskOptions mask;     // optional learned trunk mask (mask.model empty: none)
-  stems::MeasureOptions measure;  // every stem and DBH decision
-  double plot_radius_m = 10.0;    // plot figures count stems within this radius
+  dense::DnnMaskOptions mask;       // optional learned trunk mask (mask.model empty: none)
+  stems::MeasureOptions measure;    // every stem and DBH decision
+  double plot_radius_m = 10.0;      // plot figures count stems within this radius
+  gis::GeoreferenceOptions georef;  // where the plot lies: centre, first bearing, CRS
   // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
   // camera are used instead of tracking again; empty: track the video.
   std::filesystem::path from_track;
@@ -32,7 +34,7 @@ struct ProcessOptions {
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(ProcessOptions, track, dense, mask, measure,
-                                                plot_radius_m, from_track, write_report)
+                                                plot_radius_m, georef, from_track, write_report)
 
 // summary.json's "plot" object: the figures, and `warnings` when the list says less than a plot
 // holds (no stem at all: not a stand at breast height, or one the method could not see).
@@ -60,17 +62,20 @@ ProcessResult RunProcess(const ProcessOptions& options, const std::filesystem::p
 ProcessResult RunStems(const ProcessOptions& options, const std::filesystem::path& video,
                        const std::filesystem::path& from_dir, const std::filesystem::path& out_dir);
 
-// The tree list's files (trees.csv, stems_detail.csv, the report) and the summary's "plot", from
+// The tree list's files (trees.csv, stems_detail.csv, trees.gpkg, trees.geojson with a plot
+// centre, cloud.las, the report) and the summary's "plot" and "georeference", from
 // `result->stems`; sets `result->figures`.
-void WriteTreeOutputs(const ProcessOptions& options, const track::TrackResult& track,
-                      const std::vector<cv::Mat>& images, const std::filesystem::path& video,
+struct TreeOutputsInput {
+  const track::TrackResult* track = nullptr;
+  const std::vector<cv::Mat>* images = nullptr;           // keyframe images, for the report
+  const std::vector<dense::CloudPoint>* cloud = nullptr;  // for cloud.las
+  const gis::Georeference* georef = nullptr;
+  std::filesystem::path video;
+};
+void WriteTreeOutputs(const ProcessOptions& options, const TreeOutputsInput& input,
                       const std::filesystem::path& out_dir, ProcessResult* result);
 
 // Every estimator's DBH per stem (stems_detail.csv), to compare them tree by tree.
 void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems::Stem>& stems);
-
-// trees.csv as in docs/output-format.md, written atomically.
-void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::Stem>& stems,
-                   double breast_height_m, double plot_radius_m);
 
 }  // namespace stemmap::pipeline

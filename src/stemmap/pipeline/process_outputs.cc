@@ -49,25 +49,6 @@ nlohmann::json PlotSummaryJson(const stems::PlotFigures& figures,
           {"warnings", warnings}};
 }
 
-void WriteTreesCsv(const std::filesystem::path& path, const std::vector<stems::Stem>& stems,
-                   double breast_height_m, double plot_radius_m) {
-  std::string s =
-      "tree_id,x_m,y_m,z_m,dbh_cm,dbh_sd_cm,distance_m,azimuth_deg,n_views,confidence,flags\n";
-  int id = 0;
-  for (const stems::Stem& t : stems) {
-    const double d = t.centre_xy.norm();
-    double az = std::atan2(t.centre_xy.y(), t.centre_xy.x()) * 180.0 / M_PI;
-    if (az < 0) az += 360.0;
-    std::vector<std::string_view> flags = t.flags.Names();
-    if (std::abs(d - plot_radius_m) < 0.5) flags.push_back("plot_edge");
-    s +=
-        fmt::format("{},{:.3f},{:.3f},{:.3f},{:.1f},{:.1f},{:.2f},{:.1f},{},{:.2f},{}\n", ++id,
-                    t.centre_xy.x(), t.centre_xy.y(), t.ground_z_m + breast_height_m, 100 * t.dbh_m,
-                    100 * t.dbh_sd_m, d, az, t.n_views, t.confidence, fmt::join(flags, ";"));
-  }
-  WriteFileAtomic(path, s);
-}
-
 void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems::Stem>& stems) {
   std::string s =
       "tree_id,x_m,y_m,dbh_tangent_cm,dbh_tangent_sd_cm,dbh_slice_cm,dbh_circle_cm,n_views,"

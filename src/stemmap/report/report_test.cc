@@ -18,7 +18,7 @@ Rigid3d OutwardPose(double az_deg) {
   return {Eigen::Quaterniond(rot), Eigen::Vector3d(std::cos(th), std::sin(th), 1.3)};
 }
 
-stems::Stem MakeStem(double x, double y, double dbh_m) {
+stems::Stem StemAt(double x, double y, double dbh_m) {
   stems::Stem s;
   s.centre_xy = {x, y};
   s.dbh_m = dbh_m;
@@ -47,17 +47,17 @@ TEST(ProjectSilhouette, NothingForAStemBehindOrAroundTheCamera) {
 TEST(BestView, PrefersAClearViewToACentredButHiddenOne) {
   // Stem 1 at 6 m on +x; stem 0, nearer and a little to the right, covers part of it seen from
   // the arm at 0°, not from the arm at 20°, where stem 1 is 24° off-centre.
-  const std::vector<stems::Stem> stems = {MakeStem(3.0, -0.2, 0.3), MakeStem(6.0, 0.0, 0.3)};
+  const std::vector<stems::Stem> stems = {StemAt(3.0, -0.2, 0.3), StemAt(6.0, 0.0, 0.3)};
   const std::vector<StampedPose> keyframes = {{0.0, OutwardPose(0.0)}, {1.0, OutwardPose(20.0)}};
   EXPECT_EQ(BestView(kCamera, keyframes, stems, 1, 1.37), 1);
   EXPECT_EQ(BestView(kCamera, keyframes, stems, 0, 1.37), 0);
   // A stem no keyframe sees.
-  const std::vector<stems::Stem> behind = {MakeStem(-6.0, 0.0, 0.3)};
+  const std::vector<stems::Stem> behind = {StemAt(-6.0, 0.0, 0.3)};
   EXPECT_EQ(BestView(kCamera, keyframes, behind, 0, 1.37), -1);
 }
 
 TEST(WriteReport, ShowsEachTreeWithTicksOnItsEdges) {
-  const std::vector<stems::Stem> stems = {MakeStem(6.0, 0.0, 0.3)};
+  const std::vector<stems::Stem> stems = {StemAt(6.0, 0.0, 0.3)};
   const std::vector<StampedPose> keyframes = {{0.0, OutwardPose(0.0)}};
   // A dark trunk exactly as wide as the stem, on a bright background.
   const auto edges = ProjectSilhouette(kCamera, OutwardPose(0.0), {6.0, 0.0}, 0.15, 1.3);
@@ -107,7 +107,7 @@ TEST(WriteReport, ShowsEachTreeWithTicksOnItsEdges) {
 }
 
 TEST(WriteReport, ListsTheTreesWithoutPicturesWhenNoImagesWereKept) {
-  const std::vector<stems::Stem> stems = {MakeStem(6.0, 0.0, 0.3)};
+  const std::vector<stems::Stem> stems = {StemAt(6.0, 0.0, 0.3)};
   const std::vector<StampedPose> keyframes = {{0.0, OutwardPose(0.0)}};
   const std::vector<cv::Mat> no_images;
   ReportInput in;

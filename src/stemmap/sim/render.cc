@@ -10,12 +10,12 @@
 #include "stemmap/core/error.h"
 #include "stemmap/core/fast_math.h"
 #include "stemmap/core/rng.h"
+#include "stemmap/core/units.h"
 
 namespace stemmap::sim {
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kFieldTexelM = 0.15;
 constexpr double kWallTexelM = 0.05;
 constexpr double kWallTopM = 30.0;

@@ -5,13 +5,13 @@
 #include <numbers>
 
 #include "stemmap/core/fast_math.h"
+#include "stemmap/core/units.h"
 #include "stemmap/sim/render.h"
 
 namespace stemmap::sim {
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kObjSky = 0, kObjGround = 1, kObjWall = 2, kObjCanopy = 3, kObjTree = 100,
               kObjShrub = 100000;
 

@@ -5,12 +5,11 @@
 
 #include "stemmap/core/noise.h"
 #include "stemmap/core/rng.h"
+#include "stemmap/core/units.h"
 
 namespace stemmap::sim {
 
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 Eigen::Quaterniond Rot(const Eigen::Vector3d& axis, double angle_rad) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(angle_rad, axis));

@@ -12,12 +12,11 @@
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/core/rng.h"
+#include "stemmap/core/units.h"
 
 namespace stemmap::sim {
 
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 struct Placed {
   Eigen::Vector2d xy;  // stem position at breast height

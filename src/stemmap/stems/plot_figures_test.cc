@@ -21,7 +21,7 @@ std::vector<StampedPose> Turn() {
   return keyframes;
 }
 
-Stem At(double x, double y, double dbh_m, double confidence = 1.0, double sd_m = 0.0) {
+Stem Listed(double x, double y, double dbh_m, double confidence = 1.0, double sd_m = 0.0) {
   Stem s;
   s.centre_xy = {x, y};
   s.dbh_m = dbh_m;
@@ -36,7 +36,7 @@ TEST(HiddenBehindStems, ANearWideStemHidesASectorBehindIt) {
   const Visibility none = HiddenBehindStems({}, Turn(), kCamera, 10.0);
   EXPECT_EQ(none.hidden_area_m2, 0.0);
   EXPECT_NEAR(none.plot_area_m2, M_PI * 100, 1e-9);
-  const Visibility one = HiddenBehindStems({At(3.0, 0.0, 0.6)}, Turn(), kCamera, 10.0);
+  const Visibility one = HiddenBehindStems({Listed(3.0, 0.0, 0.6)}, Turn(), kCamera, 10.0);
   ASSERT_EQ(one.sectors.size(), 1u);
   const HiddenSector& h = one.sectors[0];
   EXPECT_EQ(h.tree, 0);
@@ -45,15 +45,16 @@ TEST(HiddenBehindStems, ANearWideStemHidesASectorBehindIt) {
   EXPECT_GT(h.area_m2, 0.0);
   EXPECT_NEAR(one.hidden_area_m2, h.area_m2, 1e-9);
   // The arm sees round a thinner stem sooner: its shadow is shorter.
-  const double thin = HiddenBehindStems({At(3.0, 0.0, 0.2)}, Turn(), kCamera, 10.0).hidden_area_m2;
+  const double thin =
+      HiddenBehindStems({Listed(3.0, 0.0, 0.2)}, Turn(), kCamera, 10.0).hidden_area_m2;
   EXPECT_LT(thin, h.area_m2);
   // Ground beyond the plot radius is not counted.
-  EXPECT_LT(HiddenBehindStems({At(9.5, 0.0, 0.6)}, Turn(), kCamera, 10.0).hidden_area_m2, 0.5);
+  EXPECT_LT(HiddenBehindStems({Listed(9.5, 0.0, 0.6)}, Turn(), kCamera, 10.0).hidden_area_m2, 0.5);
 }
 
 TEST(ComputePlotFigures, CertainStemsGiveTheirFiguresAndNarrowIntervals) {
-  const std::vector<Stem> trees = {At(3, 0, 0.30), At(0, 5, 0.40), At(-6, -2, 0.20),
-                                   At(11, 0, 0.50)};  // beyond the plot
+  const std::vector<Stem> trees = {Listed(3, 0, 0.30), Listed(0, 5, 0.40), Listed(-6, -2, 0.20),
+                                   Listed(11, 0, 0.50)};  // beyond the plot
   PlotFigureOptions o;
   const PlotFigures f = ComputePlotFigures(o, trees, Visibility{{}, 0.0, M_PI * 100});
   EXPECT_EQ(f.stems, 3);
@@ -68,8 +69,8 @@ TEST(ComputePlotFigures, CertainStemsGiveTheirFiguresAndNarrowIntervals) {
 }
 
 TEST(ComputePlotFigures, DoubtAndHiddenGroundWidenTheIntervals) {
-  const std::vector<Stem> trees = {At(3, 0, 0.30, 0.6, 0.03), At(0, 5, 0.40, 1.0, 0.02),
-                                   At(-6, -2, 0.20, 0.9, 0.01), At(2, -7, 0.35, 1.0, 0.01)};
+  const std::vector<Stem> trees = {Listed(3, 0, 0.30, 0.6, 0.03), Listed(0, 5, 0.40, 1.0, 0.02),
+                                   Listed(-6, -2, 0.20, 0.9, 0.01), Listed(2, -7, 0.35, 1.0, 0.01)};
   const Visibility hidden{{}, 60.0, M_PI * 100};
   const PlotFigures f = ComputePlotFigures(PlotFigureOptions(), trees, hidden);
   EXPECT_LT(f.stems_per_ha_95.low, f.stems_per_ha) << "a doubtful stem may be none";

@@ -42,7 +42,7 @@ StemsResult DetectWithoutBearingSplit(const std::vector<dense::CloudPoint>& clou
   return DetectStems(o, cloud, ground);
 }
 
-Stem At(double x, double y, double dbh_m) {
+Stem StemAt(double x, double y, double dbh_m) {
   Stem s;
   s.centre_xy = {x, y};
   s.dbh_m = dbh_m;
@@ -51,12 +51,13 @@ Stem At(double x, double y, double dbh_m) {
 
 TEST(AttachLargerCloudParts, AnOverlappingPartThatDiffersJoinsTheNearestStem) {
   // managed-1's 31.9-cm stem: the cloud saw an 18.8-cm sliver of it, the larger cloud 30.8 cm.
-  std::vector<Stem> found = {At(4.99, -4.49, 0.188), At(1.88, -1.90, 0.343), At(8.0, 0.0, 0.3)};
+  std::vector<Stem> found = {StemAt(4.99, -4.49, 0.188), StemAt(1.88, -1.90, 0.343),
+                             StemAt(8.0, 0.0, 0.3)};
   const std::vector<Stem> more = {
-      At(4.98, -4.58, 0.308),  // differs: joins the sliver
-      At(1.88, -1.90, 0.344),  // the same stem as found: nothing to add
-      At(8.0, 0.9, 0.3),       // a stem of its own, 0.6 m clear of any: not attached
-      At(5.40, -4.49, 0.2)};   // overlaps the sliver too, but farther than the first
+      StemAt(4.98, -4.58, 0.308),  // differs: joins the sliver
+      StemAt(1.88, -1.90, 0.344),  // the same stem as found: nothing to add
+      StemAt(8.0, 0.9, 0.3),       // a stem of its own, 0.6 m clear of any: not attached
+      StemAt(5.40, -4.49, 0.2)};   // overlaps the sliver too, but farther than the first
   EXPECT_EQ(AttachLargerCloudParts(more, 0.1, &found), 1);
   ASSERT_EQ(found[0].larger_cloud_part.size(), 1u);
   EXPECT_DOUBLE_EQ(found[0].larger_cloud_part[0].dbh_m, 0.308);
@@ -66,12 +67,12 @@ TEST(AttachLargerCloudParts, AnOverlappingPartThatDiffersJoinsTheNearestStem) {
 
 TEST(StemsAwayFrom, KeepsTheStemsClearOfEveryFoundOneNearestFirst) {
   // natural-2's 11.4-cm stem behind a 24.3-cm one: the cloud has no part there.
-  const std::vector<Stem> found = {At(-4.44, 1.24, 0.216), At(8.0, 0.0, 0.3)};
+  const std::vector<Stem> found = {StemAt(-4.44, 1.24, 0.216), StemAt(8.0, 0.0, 0.3)};
   std::vector<Stem> more = {
-      At(-8.46, 2.29, 0.106),  // clear of both
-      At(8.0, 0.27, 0.2),      // its bark 2 cm from the found stem's: the same stem
-      At(2.0, 1.0, 0.15)};     // clear, and nearer the centre
-  more[0].alternatives = {At(-8.45, 2.29, 0.1)};
+      StemAt(-8.46, 2.29, 0.106),  // clear of both
+      StemAt(8.0, 0.27, 0.2),      // its bark 2 cm from the found stem's: the same stem
+      StemAt(2.0, 1.0, 0.15)};     // clear, and nearer the centre
+  more[0].alternatives = {StemAt(-8.45, 2.29, 0.1)};
   const std::vector<Stem> away = StemsAwayFrom(more, 0.1, found);
   ASSERT_EQ(away.size(), 2u);
   EXPECT_DOUBLE_EQ(away[0].centre_xy.x(), 2.0);

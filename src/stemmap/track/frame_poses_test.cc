@@ -4,11 +4,10 @@
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
+#include "stemmap/core/units.h"
 
 namespace stemmap::track {
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
 
 // Keyframes every 2° on a 1 m arm; the frame halfway between two of them has wobbled by 0.5° and
 // 8 mm, which interpolating the keyframes cannot know.

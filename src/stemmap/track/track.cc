@@ -12,6 +12,7 @@
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/core/run_folder.h"
+#include "stemmap/core/units.h"
 #include "stemmap/track/frame_poses.h"
 #include "stemmap/track/plot_frame.h"
 #include "stemmap/track/rotation.h"
@@ -21,8 +22,6 @@
 namespace stemmap::track {
 
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
 
 double WrapPi(double a) { return std::remainder(a, 2.0 * M_PI); }
 
