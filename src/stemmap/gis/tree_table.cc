@@ -31,7 +31,7 @@ std::vector<TreeRow> TreeRows(const TreeRowOptions& o, const std::vector<stems::
     r.n_views = s.n_views;
     r.confidence = s.confidence;
     std::vector<std::string_view> flags = s.flags.Names();
-    if (std::abs(r.distance_m - o.plot_radius_m) < o.edge_band_m) flags.push_back("plot_edge");
+    if (std::abs(r.distance_m - o.plot_radius_m) <= s.dbh_m) flags.push_back("plot_edge");
     r.flags = fmt::format("{}", fmt::join(flags, ";"));
     rows.push_back(std::move(r));
   }

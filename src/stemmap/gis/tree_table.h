@@ -27,12 +27,11 @@ struct TreeRow {
   std::string flags;  // ';'-separated flag names
 };
 
-// One row per stem, in the given order. `plot_edge` is added to the flags of a stem whose centre
-// lies within `edge_band_m` of the plot radius.
+// One row per stem, in the given order. `plot_edge` is added to the flags of a borderline stem:
+// its centre within one DBH of the plot radius (stems::PlotFigures counts them).
 struct TreeRowOptions {
   double breast_height_m = 1.3;
   double plot_radius_m = 10.0;
-  double edge_band_m = 0.5;
 };
 std::vector<TreeRow> TreeRows(const TreeRowOptions& options, const std::vector<stems::Stem>& stems,
                               const Georeference& georef);

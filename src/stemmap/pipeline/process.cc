@@ -114,14 +114,17 @@ void WriteTreeOutputs(const ProcessOptions& o, const TreeOutputsInput& in,
   const track::TrackResult& tr = *in.track;
   const stems::Visibility visibility =
       stems::HiddenBehindStems(r->stems, tr.keyframes, tr.camera, o.plot_radius_m);
-  r->figures =
-      stems::ComputePlotFigures({o.plot_radius_m, o.measure.min_dbh_cm}, r->stems, visibility);
+  stems::PlotFigureOptions figure_options;
+  figure_options.plot_radius_m = o.plot_radius_m;
+  figure_options.min_dbh_cm = o.measure.min_dbh_cm;
+  r->figures = stems::ComputePlotFigures(figure_options, r->stems, visibility);
   gis::TreeRowOptions row_options;
   row_options.breast_height_m = o.measure.stems.breast_height_m;
   row_options.plot_radius_m = o.plot_radius_m;
   const std::vector<gis::TreeRow> rows = gis::TreeRows(row_options, r->stems, *in.georef);
   gis::WriteTreesCsv(out_dir / "trees.csv", rows);
   WriteStemDetails(out_dir / "stems_detail.csv", r->stems);
+  WriteStandTableCsv(out_dir / "stand_table.csv", r->figures);
   gis::WriteGisFiles(*in.georef, {&rows, CameraPathXy(tr), o.plot_radius_m}, out_dir);
   std::vector<double> keyframe_t_s;
   for (const StampedPose& k : tr.keyframes) keyframe_t_s.push_back(k.t_s);

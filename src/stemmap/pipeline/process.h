@@ -75,6 +75,9 @@ struct TreeOutputsInput {
 void WriteTreeOutputs(const ProcessOptions& options, const TreeOutputsInput& input,
                       const std::filesystem::path& out_dir, ProcessResult* result);
 
+// stand_table.csv: stems/ha and basal area/ha by DBH class, and a last row `all`.
+void WriteStandTableCsv(const std::filesystem::path& path, const stems::PlotFigures& figures);
+
 // Every estimator's DBH per stem (stems_detail.csv), to compare them tree by tree.
 void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems::Stem>& stems);
 

@@ -32,7 +32,27 @@ nlohmann::json PlotSummaryJson(const stems::PlotFigures& figures,
                       {"to_m", h.to_m},
                       {"area_m2", h.area_m2}});
   }
+  nlohmann::json table = nlohmann::json::array();
+  for (const stems::DbhClass& c : figures.stand_table) {
+    table.push_back({{"from_cm", c.from_cm},
+                     {"to_cm", c.to_cm},
+                     {"stems", c.stems},
+                     {"stems_per_ha", c.stems_per_ha},
+                     {"basal_area_m2_per_ha", c.basal_area_m2_per_ha}});
+  }
+  const stems::OcclusionCorrection& oc = figures.occlusion;
+  const nlohmann::json occlusion = {
+      {"model", stems::DetectionModelName(oc.fit.model)},
+      {"sigma_m", oc.fit.sigma_m},
+      {"shape", oc.fit.shape},
+      {"aic", oc.fit.aic},
+      {"detection_probability", oc.fit.detection_probability},
+      {"stems_per_ha", oc.stems_per_ha},
+      {"stems_per_ha_95", interval(oc.stems_per_ha_95)},
+      {"basal_area_m2_per_ha", oc.basal_area_m2_per_ha},
+      {"basal_area_m2_per_ha_95", interval(oc.basal_area_m2_per_ha_95)}};
   return {{"radius_m", plot_radius_m},
+          {"area_m2", figures.plot_area_m2},
           {"min_dbh_cm", min_dbh_cm},
           {"stems", figures.stems},
           {"stems_per_ha", figures.stems_per_ha},
@@ -41,12 +61,29 @@ nlohmann::json PlotSummaryJson(const stems::PlotFigures& figures,
           {"stems_per_ha_95", interval(figures.stems_per_ha_95)},
           {"basal_area_m2_per_ha_95", interval(figures.basal_area_m2_per_ha_95)},
           {"qmd_cm_95", interval(figures.qmd_cm_95)},
+          {"dominant_diameter_cm", figures.dominant_diameter_cm},
+          {"dominant_diameter_cm_95", interval(figures.dominant_diameter_cm_95)},
+          {"borderline_stems", figures.borderline_stems},
+          {"borderline_counted", figures.borderline_counted},
+          {"stand_table", table},
+          {"occlusion_corrected", occlusion},
           {"hidden_area_m2", visibility.hidden_area_m2},
           {"hidden_share",
            visibility.plot_area_m2 > 0 ? visibility.hidden_area_m2 / visibility.plot_area_m2 : 0.0},
           {"expected_hidden_stems", figures.expected_hidden_stems},
           {"hidden", hidden},
           {"warnings", warnings}};
+}
+
+void WriteStandTableCsv(const std::filesystem::path& path, const stems::PlotFigures& figures) {
+  std::string s = "dbh_from_cm,dbh_to_cm,stems,stems_per_ha,basal_area_m2_per_ha\n";
+  for (const stems::DbhClass& c : figures.stand_table) {
+    s += fmt::format("{:g},{:g},{},{:.1f},{:.3f}\n", c.from_cm, c.to_cm, c.stems, c.stems_per_ha,
+                     c.basal_area_m2_per_ha);
+  }
+  s += fmt::format("all,,{},{:.1f},{:.3f}\n", figures.stems, figures.stems_per_ha,
+                   figures.basal_area_m2_per_ha);
+  WriteFileAtomic(path, s);
 }
 
 void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems::Stem>& stems) {

@@ -111,16 +111,53 @@ void PlotFigureOptions::Check() const {
   if (!(plot_radius_m > 0)) throw InputError("--plot-radius must be positive");
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
   if (interval_draws < 100) throw InputError("the plot intervals need at least 100 draws");
+  if (!(class_width_cm > 0)) throw InputError("the stand table's class width must be positive");
+  if (!(dominant_stems_per_ha > 0)) {
+    throw InputError("the dominant diameter needs a positive number of stems a hectare");
+  }
+  occlusion.Check();
 }
 
 namespace {
 
-// Stems/ha, basal area/ha and QMD of DBHs (cm) on `area_ha`.
+// Quadratic mean of the `count` largest DBHs (cm), the last one weighted by count's fraction;
+// all of them when there are fewer.
+double DominantDiameter(std::vector<double> dbh_cm, double count) {
+  if (dbh_cm.empty()) return 0.0;
+  std::ranges::sort(dbh_cm, std::greater<>());
+  double sum_w = 0.0, sum_d2 = 0.0;
+  for (size_t i = 0; i < dbh_cm.size() && sum_w < count; ++i) {
+    const double w = std::min(1.0, count - sum_w);
+    sum_w += w;
+    sum_d2 += w * dbh_cm[i] * dbh_cm[i];
+  }
+  return std::sqrt(sum_d2 / sum_w);
+}
+
+std::vector<DbhClass> StandTable(const std::vector<double>& dbh_cm, double width_cm,
+                                 double area_ha) {
+  std::vector<DbhClass> table;
+  if (dbh_cm.empty()) return table;
+  const auto [lo, hi] = std::ranges::minmax(dbh_cm);
+  const int first = static_cast<int>(std::floor(lo / width_cm));
+  const int last = static_cast<int>(std::floor(hi / width_cm));
+  for (int k = first; k <= last; ++k) table.push_back({k * width_cm, (k + 1) * width_cm});
+  for (double d : dbh_cm) {
+    DbhClass& c = table[static_cast<int>(std::floor(d / width_cm)) - first];
+    ++c.stems;
+    c.stems_per_ha += 1.0 / area_ha;
+    c.basal_area_m2_per_ha += M_PI * std::pow(d / 200.0, 2) / area_ha;
+  }
+  return table;
+}
+
+// Stems/ha, basal area/ha, QMD and dominant diameter of DBHs (cm) on `area_ha`.
 struct Figures {
-  double per_ha = 0.0, basal_per_ha = 0.0, qmd_cm = 0.0;
+  double per_ha = 0.0, basal_per_ha = 0.0, qmd_cm = 0.0, dominant_cm = 0.0;
 };
-Figures FiguresOf(const std::vector<double>& dbh_cm, double area_ha) {
+Figures FiguresOf(const std::vector<double>& dbh_cm, double area_ha, double dominant_per_ha) {
   Figures f;
+  f.dominant_cm = DominantDiameter(dbh_cm, dominant_per_ha * area_ha);
   double sum_ba = 0.0, sum_d2 = 0.0;
   for (double d : dbh_cm) {
     sum_ba += M_PI * std::pow(d / 200.0, 2);
@@ -140,12 +177,6 @@ int Poisson(double mean, Rng* rng) {
   return k;
 }
 
-Interval Percentiles95(std::vector<double> v) {
-  std::ranges::sort(v);
-  const auto at = [&](double q) { return v[static_cast<size_t>(q * (v.size() - 1))]; };
-  return {at(0.025), at(0.975)};
-}
-
 }  // namespace
 
 PlotFigures ComputePlotFigures(const PlotFigureOptions& o, const std::vector<Stem>& trees,
@@ -161,7 +192,7 @@ PlotFigures ComputePlotFigures(const PlotFigureOptions& o, const std::vector<Ste
   }
   PlotFigures f;
   f.stems = static_cast<int>(in_plot.size());
-  const Figures listed = FiguresOf(dbh_cm, area_ha);
+  const Figures listed = FiguresOf(dbh_cm, area_ha, o.dominant_stems_per_ha);
   f.stems_per_ha = listed.per_ha;
   f.basal_area_m2_per_ha = listed.basal_per_ha;
   f.qmd_cm = listed.qmd_cm;
@@ -169,7 +200,7 @@ PlotFigures ComputePlotFigures(const PlotFigureOptions& o, const std::vector<Ste
   const double seen_m2 = std::max(1.0, visibility.plot_area_m2 - visibility.hidden_area_m2);
   f.expected_hidden_stems = f.stems * visibility.hidden_area_m2 / seen_m2;
   Rng rng(o.seed);
-  std::vector<double> per_ha, basal, qmd;
+  std::vector<double> per_ha, basal, qmd, dominant;
   std::vector<double> draw;
   for (int k = 0; k < o.interval_draws; ++k) {
     draw.clear();
@@ -182,14 +213,29 @@ PlotFigures ComputePlotFigures(const PlotFigureOptions& o, const std::vector<Ste
     for (int h = 0; h < hidden; ++h) {
       draw.push_back(dbh_cm[rng.UniformInt(0, static_cast<int>(dbh_cm.size()) - 1)]);
     }
-    const Figures g = FiguresOf(draw, area_ha);
+    const Figures g = FiguresOf(draw, area_ha, o.dominant_stems_per_ha);
     per_ha.push_back(g.per_ha);
     basal.push_back(g.basal_per_ha);
     qmd.push_back(g.qmd_cm);
+    dominant.push_back(g.dominant_cm);
   }
   f.stems_per_ha_95 = Percentiles95(per_ha);
   f.basal_area_m2_per_ha_95 = Percentiles95(basal);
   f.qmd_cm_95 = Percentiles95(qmd);
+  f.dominant_diameter_cm = listed.dominant_cm;
+  f.dominant_diameter_cm_95 = Percentiles95(dominant);
+  f.plot_area_m2 = area_ha * 1e4;
+  f.stand_table = StandTable(dbh_cm, o.class_width_cm, area_ha);
+  std::vector<double> distances_m;
+  for (const Stem* s : in_plot) distances_m.push_back(s->centre_xy.norm());
+  f.occlusion = CorrectForOcclusion(o.occlusion, distances_m, dbh_cm, o.plot_radius_m);
+  for (const Stem& s : trees) {
+    if (100 * s.dbh_m < o.min_dbh_cm) continue;
+    const double d = s.centre_xy.norm();
+    if (std::abs(d - o.plot_radius_m) > s.dbh_m) continue;
+    ++f.borderline_stems;
+    if (d <= o.plot_radius_m) ++f.borderline_counted;
+  }
   return f;
 }
 

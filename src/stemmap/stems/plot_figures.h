@@ -8,6 +8,8 @@
 
 #include "stemmap/camera/camera.h"
 #include "stemmap/core/pose.h"
+#include "stemmap/stems/distance_sampling.h"
+#include "stemmap/stems/interval.h"
 #include "stemmap/stems/stems.h"
 
 namespace stemmap::stems {
@@ -34,16 +36,24 @@ Visibility HiddenBehindStems(const std::vector<Stem>& trees,
                              const std::vector<StampedPose>& keyframes, const PinholeCamera& camera,
                              double plot_radius_m);
 
-struct Interval {
-  double low = 0.0, high = 0.0;
-};
-
 struct PlotFigureOptions {
-  double plot_radius_m = 10.0;  // figures count stems within this radius
+  double plot_radius_m = 10.0;  // figures count stems within this radius (horizontal, centre rule)
   double min_dbh_cm = 7.0;      // and at least this thick
   int interval_draws = 4000;    // draws of the intervals' simulation
   uint64_t seed = 1;            // of those draws
+  double class_width_cm = 5.0;  // of the stand table's DBH classes, which start at multiples of it
+  // The dominant diameter is the quadratic mean DBH of this many thickest stems a hectare (the
+  // plot's share of them, the last one weighted by its fraction).
+  double dominant_stems_per_ha = 100.0;
+  OcclusionOptions occlusion;
   void Check() const;
+};
+
+// One row of the stand table: stems with from_cm <= DBH < to_cm.
+struct DbhClass {
+  double from_cm = 0.0, to_cm = 0.0;
+  int stems = 0;
+  double stems_per_ha = 0.0, basal_area_m2_per_ha = 0.0;
 };
 
 struct PlotFigures {
@@ -54,6 +64,16 @@ struct PlotFigures {
   // ground seen (their DBH drawn from the listed ones).
   Interval stems_per_ha_95, basal_area_m2_per_ha_95, qmd_cm_95;
   double expected_hidden_stems = 0.0;
+  double plot_area_m2 = 0.0;  // horizontal: distances are horizontal, so no slope correction
+  std::vector<DbhClass> stand_table;  // thinnest class first, empty classes between kept
+  double dominant_diameter_cm = 0.0;
+  Interval dominant_diameter_cm_95;
+  // Stems within one DBH of the plot edge (centre distance), listed or not; of them those whose
+  // centre lies inside are counted, as the usual rule has it.
+  int borderline_stems = 0, borderline_counted = 0;
+  // Stems/ha and basal area corrected for the stems a scan from the centre misses, by distance
+  // sampling (see distance_sampling.h), beside the figures of the list and of the hidden ground.
+  OcclusionCorrection occlusion;
 };
 
 // The figures of `trees` (nearest first) for the plot; `visibility` gives the hidden ground.

@@ -84,5 +84,53 @@ TEST(ComputePlotFigures, DoubtAndHiddenGroundWidenTheIntervals) {
   EXPECT_EQ(again.basal_area_m2_per_ha_95.low, f.basal_area_m2_per_ha_95.low);
 }
 
+TEST(ComputePlotFigures, TheStandTableSplitsTheStemsByFiveCentimetreClass) {
+  const std::vector<Stem> trees = {Listed(3, 0, 0.121), Listed(0, 5, 0.149), Listed(-6, -2, 0.25),
+                                   Listed(2, 2, 0.312), Listed(11, 0, 0.50)};  // beyond the plot
+  const PlotFigures f = ComputePlotFigures({}, trees, Visibility{{}, 0.0, M_PI * 100});
+  const double area_ha = M_PI * 100 / 1e4;
+  ASSERT_EQ(f.stand_table.size(), 5u);  // 10-15, 15-20 (empty), 20-25 (empty), 25-30, 30-35
+  EXPECT_EQ(f.stand_table[0].from_cm, 10.0);
+  EXPECT_EQ(f.stand_table[0].to_cm, 15.0);
+  EXPECT_EQ(f.stand_table[0].stems, 2);
+  EXPECT_EQ(f.stand_table[1].stems, 0);
+  EXPECT_EQ(f.stand_table[3].stems, 1);
+  EXPECT_EQ(f.stand_table[4].stems, 1);
+  double per_ha = 0, basal = 0;
+  for (const DbhClass& c : f.stand_table) {
+    per_ha += c.stems_per_ha;
+    basal += c.basal_area_m2_per_ha;
+  }
+  EXPECT_NEAR(per_ha, f.stems_per_ha, 1e-9);
+  EXPECT_NEAR(basal, f.basal_area_m2_per_ha, 1e-9);
+  EXPECT_NEAR(f.stand_table[0].stems_per_ha, 2 / area_ha, 1e-9);
+  EXPECT_NEAR(f.plot_area_m2, M_PI * 100, 1e-9);
+}
+
+TEST(ComputePlotFigures, TheDominantDiameterIsTheQuadraticMeanOfTheHundredThickestAHectare) {
+  // A 10-m plot is 0.0314 ha: its share of 100 stems a hectare is 3.14 stems.
+  const std::vector<Stem> trees = {Listed(3, 0, 0.10), Listed(0, 5, 0.40), Listed(-6, -2, 0.20),
+                                   Listed(2, -7, 0.30), Listed(-1, 4, 0.50)};
+  const PlotFigures f = ComputePlotFigures({}, trees, Visibility{{}, 0.0, M_PI * 100});
+  const double w = M_PI - 3.0;
+  EXPECT_NEAR(f.dominant_diameter_cm, std::sqrt((2500 + 1600 + 900 + w * 400) / (3 + w)), 1e-9);
+  EXPECT_NEAR(f.dominant_diameter_cm_95.low, f.dominant_diameter_cm, 1e-9);
+  // Fewer stems than the share: all of them.
+  const PlotFigures two = ComputePlotFigures({}, {Listed(3, 0, 0.30), Listed(0, 5, 0.40)},
+                                             Visibility{{}, 0.0, M_PI * 100});
+  EXPECT_NEAR(two.dominant_diameter_cm, std::sqrt((900 + 1600) / 2.0), 1e-9);
+}
+
+TEST(ComputePlotFigures, BorderlineStemsAreThoseWithinOneDbhOfTheEdgeCountedByTheirCentre) {
+  const std::vector<Stem> trees = {Listed(9.8, 0, 0.30),   // inside, within a DBH: counted
+                                   Listed(0, 10.2, 0.40),  // outside, within a DBH
+                                   Listed(-9.5, 0, 0.20),  // inside, farther than its DBH
+                                   Listed(3, 0, 0.30)};
+  const PlotFigures f = ComputePlotFigures({}, trees, Visibility{{}, 0.0, M_PI * 100});
+  EXPECT_EQ(f.borderline_stems, 2);
+  EXPECT_EQ(f.borderline_counted, 1);
+  EXPECT_EQ(f.stems, 3);
+}
+
 }  // namespace
 }  // namespace stemmap::stems
