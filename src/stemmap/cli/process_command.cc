@@ -62,6 +62,23 @@ void AddMeasureFlags(CLI::App* sub, pipeline::ProcessOptions* opt) {
                 "Drop cloud parts whose silhouettes were not found (default); "
                 "--keep-unconfirmed keeps them, flagged no_silhouette");
   AddGeoreferenceFlags(sub, &opt->georef);
+  sub->add_option_function<std::vector<std::string>>(
+         "--export",
+         [opt](const std::vector<std::string>& names) {
+           opt->exports.clear();
+           for (const std::string& name : names) {
+             if (name == "fortls") {
+               opt->exports.push_back(gis::TreeTableFormat::kFortls);
+             } else if (name == "fsct") {
+               opt->exports.push_back(gis::TreeTableFormat::kFsct);
+             } else {
+               throw CLI::ValidationError("--export", "fortls or fsct, not '" + name + "'");
+             }
+           }
+         },
+         "Also write the tree list as another tool's table: fortls (tree.tls.csv) or fsct "
+         "(tree_data.csv); fortls,fsct for both")
+      ->delimiter(',');
   sub->add_flag("--report,!--no-report", opt->write_report,
                 "Write map.svg and report.html with a picture of each stem at breast height "
                 "(default)");

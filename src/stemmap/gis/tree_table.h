@@ -4,8 +4,10 @@
 // that every file says the same of each tree.
 #include <Eigen/Core>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "stemmap/gis/georef.h"
@@ -25,6 +27,15 @@ struct TreeRow {
   int n_views = 0;
   double confidence = 0.0;
   std::string flags;  // ';'-separated flag names
+  // For the other tools' tables: the ground at the stem (plot frame), the stem's cloud points,
+  // the spread of the views that measured it, and whether a nearer stem hid part of it.
+  double ground_z_m = 0.0;
+  int n_points = 0;
+  double arc_deg = 0.0;
+  bool occluded = false;
+  // The local offsets FORTLS-style tools expect: east and north of the centre with a first
+  // bearing, else the plot frame's x and y.
+  Eigen::Vector2d local_xy_m = Eigen::Vector2d::Zero();
 };
 
 // One row per stem, in the given order. `plot_edge` is added to the flags of a borderline stem:
@@ -39,5 +50,27 @@ std::vector<TreeRow> TreeRows(const TreeRowOptions& options, const std::vector<s
 // trees.csv (docs/output-format.md), written atomically. The georeferenced columns (bearing_deg,
 // easting_m, northing_m, lat, lon) are always there, empty where nothing ties the plot to the map.
 void WriteTreesCsv(const std::filesystem::path& path, const std::vector<TreeRow>& rows);
+
+// The tree list in other tools' formats, so their scripts take stemmap's output.
+enum class TreeTableFormat {
+  // FORTLS's tree.tls.csv (R write.csv): id, file, tree, x, y (m, from the plot centre: east and
+  // north with a first bearing, else the plot frame), phi, phi.left, phi.right (rad, counter-
+  // clockwise from x), h.dist (m), dbh (cm), h, v (NA), n.pts, n.pts.red (the stem's cloud
+  // points), n.pts.est, n.pts.red.est (NA), partial.occlusion (0 or 1).
+  kFortls,
+  // FSCT's tree_data.csv: TreeId, x_tree_base, y_tree_base, z_tree_base (m: the projected CRS with
+  // a plot centre, else the plot frame), DBH (m), CCI_at_BH (the share of the circumference the
+  // views saw: half a turn plus their spread), and FSCT's height, volume and crown columns empty.
+  kFsct,
+};
+NLOHMANN_JSON_SERIALIZE_ENUM(TreeTableFormat, {{TreeTableFormat::kFortls, "fortls"},
+                                               {TreeTableFormat::kFsct, "fsct"}})
+// The file name the tool reads: tree.tls.csv, tree_data.csv.
+std::string_view TreeTableFileName(TreeTableFormat format);
+// Writes `rows` atomically to `path` in `format`; `plot_id` and `video_name` fill FORTLS's id and
+// file columns.
+void WriteTreeTable(TreeTableFormat format, const std::filesystem::path& path,
+                    const std::vector<TreeRow>& rows, const std::string& plot_id,
+                    const std::string& video_name);
 
 }  // namespace stemmap::gis

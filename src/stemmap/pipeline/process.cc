@@ -123,6 +123,10 @@ void WriteTreeOutputs(const ProcessOptions& o, const TreeOutputsInput& in,
   row_options.plot_radius_m = o.plot_radius_m;
   const std::vector<gis::TreeRow> rows = gis::TreeRows(row_options, r->stems, *in.georef);
   gis::WriteTreesCsv(out_dir / "trees.csv", rows);
+  for (const gis::TreeTableFormat format : o.exports) {
+    gis::WriteTreeTable(format, out_dir / gis::TreeTableFileName(format), rows,
+                        in.video.stem().string(), in.video.filename().string());
+  }
   WriteStemDetails(out_dir / "stems_detail.csv", r->stems);
   WriteStandTableCsv(out_dir / "stand_table.csv", r->figures);
   gis::WriteGisFiles(*in.georef, {&rows, CameraPathXy(tr), o.plot_radius_m}, out_dir);

@@ -10,6 +10,7 @@
 #include "stemmap/dense/dense.h"
 #include "stemmap/dense/trunk_mask.h"
 #include "stemmap/gis/georef.h"
+#include "stemmap/gis/tree_table.h"
 #include "stemmap/stems/measure.h"
 #include "stemmap/stems/plot_figures.h"
 #include "stemmap/stems/stems.h"
@@ -24,6 +25,7 @@ struct ProcessOptions {
   stems::MeasureOptions measure;    // every stem and DBH decision
   double plot_radius_m = 10.0;      // plot figures count stems within this radius
   gis::GeoreferenceOptions georef;  // where the plot lies: centre, first bearing, CRS
+  std::vector<gis::TreeTableFormat> exports;  // other tools' tree tables to write beside trees.csv
   // A finished track (`stemmap track` or `process` output folder) whose keyframe poses and
   // camera are used instead of tracking again; empty: track the video.
   std::filesystem::path from_track;
@@ -34,7 +36,8 @@ struct ProcessOptions {
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(ProcessOptions, track, dense, mask, measure,
-                                                plot_radius_m, georef, from_track, write_report)
+                                                plot_radius_m, georef, exports, from_track,
+                                                write_report)
 
 // summary.json's "plot" object: the figures, and `warnings` when the list says less than a plot
 // holds (no stem at all: not a stand at breast height, or one the method could not see).
