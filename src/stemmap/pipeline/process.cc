@@ -41,25 +41,54 @@ std::vector<Eigen::Vector2d> CameraPathXy(const track::TrackResult& tr) {
   return xy;
 }
 
-void WriteProcessReport(const ProcessOptions& o, const track::TrackResult& tr,
-                        const std::vector<cv::Mat>& images, const ProcessResult& r,
-                        const std::filesystem::path& video, const std::filesystem::path& out_dir) {
-  report::ReportOptions ro;
-  ro.map.plot_radius_m = o.plot_radius_m;
-  ro.breast_height_m = o.measure.stems.breast_height_m;
-  report::ReportInput in;
-  in.stems = &r.stems;
-  in.camera = &tr.camera;
-  in.keyframes = &tr.keyframes;
-  in.images = &images;
-  in.camera_path_xy = CameraPathXy(tr);
-  in.title = fmt::format("stemmap plot report: {}", video.filename().string());
+// The run as the report's metadata block shows it: what was filmed and how, and where the plot
+// lies.
+std::vector<std::pair<std::string, std::string>> RunMetadata(const ProcessOptions& o,
+                                                             const nlohmann::json& summary,
+                                                             const std::filesystem::path& video) {
+  auto number = [&](const char* stage, const char* key, const char* format) -> std::string {
+    const auto s = summary.find(stage);
+    if (s == summary.end() || !s->contains(key) || !(*s)[key].is_number()) return "unknown";
+    return fmt::format(fmt::runtime(format), (*s)[key].get<double>());
+  };
+  std::vector<std::pair<std::string, std::string>> m = {
+      {"video", video.filename().string()},
+      {"stemmap", STEMMAP_VERSION},
+      {"arm radius", number("track", "arm_radius_m", "{:.2f} m")},
+      {"camera height above the ground", number("track", "camera_height_m", "{:.2f} m")},
+      {"horizontal field of view", number("track", "hfov_deg", "{:.1f}°")},
+      {"turn tracked", number("track", "turn_deg", "{:.0f}°")},
+      {"ground slope", number("stems", "ground_slope_deg", "{:.1f}°")},
+      {"plot radius (horizontal)", fmt::format("{:g} m", o.plot_radius_m)},
+      {"breast height", fmt::format("{:g} m", o.measure.stems.breast_height_m)},
+      {"smallest DBH counted", fmt::format("{:g} cm", o.measure.min_dbh_cm)},
+      {"DBH method", o.measure.stems.dbh_method}};
+  const gis::GeoreferenceOptions& g = o.georef;
+  if (g.HasLatLonCentre()) {
+    m.emplace_back("plot centre (WGS 84)",
+                   fmt::format("{:.7f}, {:.7f}", *g.centre_lat_deg, *g.centre_lon_deg));
+  } else if (g.HasProjectedCentre()) {
+    m.emplace_back("plot centre", fmt::format("E {:.2f}, N {:.2f} ({})", *g.centre_easting_m,
+                                              *g.centre_northing_m, g.crs));
+  }
+  if (g.first_bearing_deg) {
+    m.emplace_back(
+        "bearing of the first view",
+        fmt::format("{:.1f}° (declination {:+.1f}°)", *g.first_bearing_deg, g.declination_deg));
+  }
+  return m;
+}
+
+std::vector<std::pair<std::string, std::string>> FigureRows(const ProcessOptions& o,
+                                                            const ProcessResult& r) {
   const stems::PlotFigures& f = r.figures;
-  in.figures = {
+  const stems::OcclusionCorrection& oc = f.occlusion;
+  return {
       {"stems listed (within 11 m)", fmt::format("{}", r.stems.size())},
       {fmt::format("stems in the {:g}-m plot, DBH ≥ {:g} cm", o.plot_radius_m,
                    o.measure.min_dbh_cm),
-       fmt::format("{}", f.stems)},
+       fmt::format("{} ({} borderline, {} of them counted)", f.stems, f.borderline_stems,
+                   f.borderline_counted)},
       {"stems per hectare (95 % interval)",
        fmt::format("{:.0f} ({:.0f}-{:.0f})", f.stems_per_ha, f.stems_per_ha_95.low,
                    f.stems_per_ha_95.high)},
@@ -68,8 +97,37 @@ void WriteProcessReport(const ProcessOptions& o, const track::TrackResult& tr,
                    f.basal_area_m2_per_ha_95.low, f.basal_area_m2_per_ha_95.high)},
       {"quadratic mean diameter (95 % interval)",
        fmt::format("{:.1f} cm ({:.1f}-{:.1f})", f.qmd_cm, f.qmd_cm_95.low, f.qmd_cm_95.high)},
+      {"dominant diameter, 100 thickest/ha (95 % interval)",
+       fmt::format("{:.1f} cm ({:.1f}-{:.1f})", f.dominant_diameter_cm,
+                   f.dominant_diameter_cm_95.low, f.dominant_diameter_cm_95.high)},
       {"stems expected behind nearer ones", fmt::format("{:.1f}", f.expected_hidden_stems)},
-      {"DBH method", o.measure.stems.dbh_method}};
+      {fmt::format("corrected for occlusion ({})", stems::DetectionModelName(oc.fit.model)),
+       fmt::format("{:.0f} stems/ha ({:.0f}-{:.0f}), {:.1f} m²/ha ({:.1f}-{:.1f})", oc.stems_per_ha,
+                   oc.stems_per_ha_95.low, oc.stems_per_ha_95.high, oc.basal_area_m2_per_ha,
+                   oc.basal_area_m2_per_ha_95.low, oc.basal_area_m2_per_ha_95.high)}};
+}
+
+void WriteProcessReport(const ProcessOptions& o, const TreeOutputsInput& tin,
+                        const stems::Visibility& visibility, const ProcessResult& r,
+                        const std::filesystem::path& out_dir) {
+  const track::TrackResult& tr = *tin.track;
+  report::ReportOptions ro;
+  ro.map.plot_radius_m = o.plot_radius_m;
+  if (o.georef.first_bearing_deg) {
+    ro.map.north_azimuth_deg = *o.georef.first_bearing_deg + o.georef.declination_deg;
+  }
+  ro.breast_height_m = o.measure.stems.breast_height_m;
+  report::ReportInput in;
+  in.stems = &r.stems;
+  in.camera = &tr.camera;
+  in.keyframes = &tr.keyframes;
+  in.images = tin.images;
+  in.camera_path_xy = CameraPathXy(tr);
+  in.title = fmt::format("stemmap plot report: {}", tin.video.filename().string());
+  in.metadata = RunMetadata(o, r.summary, tin.video);
+  in.figures = FigureRows(o, r);
+  in.stand_table = r.figures.stand_table;
+  in.hidden = visibility.sectors;
   report::WriteReport(ro, in, out_dir);
 }
 
@@ -133,7 +191,7 @@ void WriteTreeOutputs(const ProcessOptions& o, const TreeOutputsInput& in,
   std::vector<double> keyframe_t_s;
   for (const StampedPose& k : tr.keyframes) keyframe_t_s.push_back(k.t_s);
   gis::WriteLas(out_dir / "cloud.las", *in.cloud, keyframe_t_s, *in.georef);
-  if (o.write_report) WriteProcessReport(o, tr, *in.images, *r, in.video, out_dir);
+  if (o.write_report) WriteProcessReport(o, in, visibility, *r, out_dir);
   r->summary["plot"] = PlotSummaryJson(r->figures, visibility, static_cast<int>(r->stems.size()),
                                        o.plot_radius_m, o.measure.min_dbh_cm);
   r->summary["georeference"] = o.georef;
@@ -167,12 +225,12 @@ ProcessResult RunStems(const ProcessOptions& o, const std::filesystem::path& vid
   stems::MeasureResult mr = stems::MeasureTrees(o.measure, std::move(min));
   ProcessResult r;
   r.stems = std::move(mr.trees);
-  WriteTreeOutputs(o, {&tr, &tr.keyframe_images, &cloud.points, &georef, video}, out_dir, &r);
   nlohmann::json& s = r.summary;
   tr.summary["reused_from"] = std::filesystem::absolute(from_dir).string();
   s["track"] = tr.summary;
   s["dense"] = cloud.summary;
   s["stems"] = mr.summary;
+  WriteTreeOutputs(o, {&tr, &tr.keyframe_images, &cloud.points, &georef, video}, out_dir, &r);
   s["timing_s"] = {
       {"stems_s", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()}};
   WriteJsonAtomic(out_dir / "process_options.json", o);
@@ -237,11 +295,11 @@ ProcessResult RunProcess(const ProcessOptions& o, const std::filesystem::path& v
 
   ProcessResult r;
   r.stems = std::move(mr.trees);
-  WriteTreeOutputs(o, {&tr, &din.images, &dr.points, &georef, video}, out_dir, &r);
   nlohmann::json& s = r.summary;
   s["track"] = tr.summary;
   s["dense"] = dr.summary;
   s["stems"] = mr.summary;
+  WriteTreeOutputs(o, {&tr, &din.images, &dr.points, &georef, video}, out_dir, &r);
   timing["total_s"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   s["timing_s"] = timing;
   WriteJsonAtomic(out_dir / "process_options.json", o);

@@ -51,6 +51,52 @@ TEST(PlotMapSvg, NearerStemsSitNearerTheCentreOfTheMap) {
   EXPECT_GT(cx_of(1), cx_of(0));
 }
 
+// The circle centre of tree k (0-based) in the SVG.
+Eigen::Vector2d CentreOf(const std::string& svg, int k) {
+  size_t p = 0;
+  for (int i = 0; i <= k; ++i) p = svg.find("<title>tree", p + 1);
+  const size_t c = svg.rfind("<circle cx=\"", p);
+  const double cx = std::stod(svg.substr(c + 12));
+  const size_t cy = svg.find("cy=\"", c);
+  return {cx, std::stod(svg.substr(cy + 4))};
+}
+
+TEST(PlotMapSvg, AKnownNorthTurnsTheMapNorthUp) {
+  MapOptions o;
+  o.size_px = 400;
+  o.north_azimuth_deg = 120.0;  // north lies 120° counter-clockwise of the first view
+  const double a = 120.0 * M_PI / 180, e = a - M_PI / 2;  // east is a quarter turn clockwise
+  const std::vector<stems::Stem> stems = {MakeStem(5 * std::cos(a), 5 * std::sin(a), 0.3),
+                                          MakeStem(5 * std::cos(e), 5 * std::sin(e), 0.3)};
+  const std::string svg = PlotMapSvg(o, stems, {});
+  const Eigen::Vector2d north = CentreOf(svg, 0), east = CentreOf(svg, 1);
+  EXPECT_NEAR(north.x(), 200.0, 0.2);
+  EXPECT_LT(north.y(), 200.0 - 50);
+  EXPECT_NEAR(east.y(), 200.0, 0.2);
+  EXPECT_GT(east.x(), 200.0 + 50);
+  EXPECT_NE(svg.find(">N</text>"), std::string::npos);
+  EXPECT_NE(svg.find("first view"), std::string::npos);
+}
+
+TEST(PlotMapSvg, ShadesTheHiddenGroundAndKeepsRingLabelsOffTheStems) {
+  stems::HiddenSector h;
+  h.azimuth_deg = 30.0;
+  h.half_width_deg = 5.0;
+  h.from_m = 4.0;
+  h.to_m = 10.0;
+  // A stem where the 4-m ring's label would otherwise go.
+  const double a = 22.5 * M_PI / 180;
+  const std::string svg =
+      PlotMapSvg(MapOptions{}, {MakeStem(4 * std::cos(a), 4 * std::sin(a), 0.3)}, {}, {h});
+  EXPECT_EQ(Count(svg, "<polygon"), 1);
+  const size_t label = svg.find(">4 m</text>");
+  ASSERT_NE(label, std::string::npos);
+  const size_t x = svg.rfind("<text x=\"", label);
+  const double lx = std::stod(svg.substr(x + 9));
+  const double ly = std::stod(svg.substr(svg.find("y=\"", x) + 3));
+  EXPECT_GT((Eigen::Vector2d(lx, ly) - CentreOf(svg, 0)).norm(), 30.0);
+}
+
 TEST(MapOptions, RejectsNonsense) {
   MapOptions o;
   o.size_px = 10;

@@ -18,7 +18,8 @@ namespace stemmap::report {
 struct ReportOptions {
   MapOptions map;
   double breast_height_m = 1.37;
-  int thumbnail_height_px = 180;
+  int thumbnail_height_px = 180;  // shown in the page; a click opens the crop at crop_height_px
+  int crop_height_px = 540;
   void Check() const;
 };
 
@@ -31,17 +32,22 @@ struct ReportInput {
   const std::vector<cv::Mat>* images = nullptr;
   std::vector<Eigen::Vector2d> camera_path_xy;
   std::string title;
-  std::vector<std::pair<std::string, std::string>> figures;  // label, value: plot figures
+  std::vector<std::pair<std::string, std::string>> metadata;  // label, value: the run
+  std::vector<std::pair<std::string, std::string>> figures;   // label, value: plot figures
+  std::vector<stems::DbhClass> stand_table;
+  std::vector<stems::HiddenSector> hidden;  // ground no keyframe saw past a stem
 };
 
 struct ReportSummary {
   int thumbnails = 0;  // stems shown in a keyframe
 };
 
-// Writes OUT/map.svg, OUT/report.html (figures, map, one row per tree) and, per tree, a crop of
-// the keyframe that sees it best at breast height, OUT/report/tree_NNN.jpg, with the fitted
-// stem's silhouette edges and the breast-height line drawn on it, so that a forester can check
-// each DBH against the picture. All files are written atomically.
+// Writes OUT/map.svg, OUT/report.html (the plot sheet: the run, the figures, the stand table and
+// a diameter histogram, the map, one row per tree, every flag explained, a print stylesheet for
+// A4) and, per tree, a crop of the keyframe that sees it best at breast height,
+// OUT/report/tree_NNN.jpg, with the fitted stem's silhouette edges and the breast-height line
+// drawn on it, labelled with its time in the video, so that a forester can check each DBH against
+// the picture. All files are written atomically.
 ReportSummary WriteReport(const ReportOptions& options, const ReportInput& input,
                           const std::filesystem::path& out_dir);
 

@@ -75,6 +75,8 @@ TEST(WriteReport, ShowsEachTreeWithTicksOnItsEdges) {
   in.images = &images;
   in.title = "plot <A>";
   in.figures = {{"stems/ha", "32"}};
+  in.metadata = {{"arm radius", "1.00 m"}};
+  in.stand_table = {{25.0, 30.0, 1, 31.8, 1.9}};
   const auto dir = std::filesystem::path(::testing::TempDir()) / "stemmap_report_test";
   std::filesystem::remove_all(dir);
   ReportOptions o;
@@ -82,7 +84,16 @@ TEST(WriteReport, ShowsEachTreeWithTicksOnItsEdges) {
   EXPECT_EQ(s.thumbnails, 1);
   const std::string html = ReadFileToString(dir / "report.html");
   EXPECT_NE(html.find("<title>plot &lt;A&gt;</title>"), std::string::npos);
-  EXPECT_NE(html.find("<img src=\"report/tree_001.jpg\""), std::string::npos);
+  // The crop shows small and opens full size, labelled with its time in the video.
+  EXPECT_NE(html.find("<a href=\"report/tree_001.jpg\"><img src=\"report/tree_001.jpg\" "
+                      "height=\"180\""),
+            std::string::npos);
+  EXPECT_NE(html.find("video 0.0 s"), std::string::npos);
+  // The run, the stand table with its histogram, every flag in words, and a page for print.
+  EXPECT_NE(html.find("<th>arm radius</th><td>1.00 m</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>25-30</td><td>1</td><td>32</td><td>1.90</td>"), std::string::npos);
+  EXPECT_NE(html.find("<dt>silhouette_only</dt>"), std::string::npos);
+  EXPECT_NE(html.find("@page { size: A4"), std::string::npos);
   EXPECT_NE(html.find("<svg"), std::string::npos);
   // The map's stem links to its row.
   EXPECT_NE(html.find("<a href=\"#tree-1\">"), std::string::npos);
@@ -90,7 +101,7 @@ TEST(WriteReport, ShowsEachTreeWithTicksOnItsEdges) {
   EXPECT_TRUE(std::filesystem::exists(dir / "map.svg"));
   const cv::Mat thumb = cv::imread((dir / "report/tree_001.jpg").string());
   ASSERT_FALSE(thumb.empty());
-  EXPECT_EQ(thumb.rows, o.thumbnail_height_px);
+  EXPECT_EQ(thumb.rows, o.crop_height_px);
   // The green ticks sit on the trunk's two edges: the greenest columns lie symmetric about the
   // thumbnail's middle, one trunk width apart (in thumbnail pixels).
   const double scale =

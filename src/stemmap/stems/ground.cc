@@ -209,6 +209,30 @@ void GroundGrid::FillFromGroundCells(const std::vector<char>& is_ground) {
   z_ = std::move(filled);
 }
 
+GroundGrid::Slope GroundGrid::PlaneSlope(double radius_m) const {
+  // z = a·x + b·y + c by the normal equations.
+  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d atz = Eigen::Vector3d::Zero();
+  for (int j = 0; j < n_; ++j) {
+    for (int i = 0; i < n_; ++i) {
+      const Eigen::Vector3d row(origin_ + (i + 0.5) * o_.cell_m, origin_ + (j + 0.5) * o_.cell_m,
+                                1.0);
+      if (row.head<2>().norm() > radius_m) continue;
+      const double z = z_[static_cast<size_t>(j) * n_ + i];
+      if (!std::isfinite(z)) continue;
+      ata += row * row.transpose();
+      atz += row * z;
+    }
+  }
+  if (ata(2, 2) < 3) return {};
+  const Eigen::Vector3d abc = ata.ldlt().solve(atz);
+  Slope s;
+  s.slope_deg = std::atan(abc.head<2>().norm()) * 180.0 / M_PI;
+  double az = std::atan2(-abc.y(), -abc.x()) * 180.0 / M_PI;
+  s.downhill_azimuth_deg = az < 0 ? az + 360.0 : az;
+  return s;
+}
+
 double GroundGrid::Height(double x, double y) const {
   if (n_ == 0) return 0.0;
   // Bilinear between cell centres.

@@ -55,6 +55,13 @@ class GroundGrid {
   // axis_plane_radius_m); NaN without three ground cells in reach.
   double AxisHeight() const { return axis_height_m_; }
   bool empty() const { return n_ == 0; }
+  // The plane through the grid's ground within `radius_m` of the plot centre (least squares over
+  // the cell centres): its steepest slope (degrees) and the azimuth it falls toward (degrees,
+  // counter-clockwise from x). {0, 0} for an empty grid.
+  struct Slope {
+    double slope_deg = 0.0, downhill_azimuth_deg = 0.0;
+  };
+  Slope PlaneSlope(double radius_m) const;
   int measured_cells() const { return measured_; }  // cells with points
   int ground_cells() const { return ground_; }      // of which on the ground
 

@@ -120,6 +120,13 @@ TEST(GroundGrid, TheGroundUnderTheTripodFromTheGroundAround) {
       const GroundGrid grid(Understory(terrain, 0.5, &rng, &stems), 13);
       EXPECT_NEAR(grid.Height(0, 0), terrain.Height(0, 0), 0.05);
       EXPECT_NEAR(grid.AxisHeight(), terrain.Height(0, 0), 0.05);
+      // The plot's slope, and which way it falls, from the ground within 8 m.
+      const GroundGrid::Slope slope = grid.PlaneSlope(8.0);
+      EXPECT_NEAR(slope.slope_deg, slope_deg, 1.0);
+      if (slope_deg > 0) {
+        const double downhill_deg = std::atan2(-terrain.slope_y, -terrain.slope_x) * 180 / M_PI;
+        EXPECT_NEAR(std::remainder(slope.downhill_azimuth_deg - downhill_deg, 360.0), 0.0, 10.0);
+      }
     }
   }
 }

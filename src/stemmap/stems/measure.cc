@@ -103,6 +103,9 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
     r.summary["ground_at_axis_m"] = ground.AxisHeight();
     r.summary["camera_height_m"] = camera_z_m - ground.AxisHeight();
   }
+  const GroundGrid::Slope slope = ground.PlaneSlope(o.stems.search_radius_m);
+  r.summary["ground_slope_deg"] = slope.slope_deg;
+  r.summary["ground_downhill_azimuth_deg"] = slope.downhill_azimuth_deg;
   r.summary["ground_cells"] = ground.ground_cells();
   r.summary["measured_cells"] = ground.measured_cells();
   r.summary["below_min_dbh"] = below;
