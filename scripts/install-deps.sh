@@ -9,6 +9,7 @@ packages=(
   libnanoflann-dev libcli11-dev libfmt-dev libspdlog-dev nlohmann-json3-dev
   libgdal-dev libgtest-dev libgmock-dev libbenchmark-dev
   clang libclang-rt-14-dev libomp-dev  # the fuzz targets (scripts/fuzz.sh)
+  chromium  # the report test renders the plot sheet headless
 )
 
 missing=()

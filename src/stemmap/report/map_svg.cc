@@ -178,12 +178,12 @@ std::string PlotMapSvg(const MapOptions& o, const std::vector<stems::Stem>& stem
   // Scale bar and legend along the bottom.
   const double y0 = o.size_px - 14.0;
   svg += fmt::format(
-      "<line x1=\"12\" y1=\"{0:.1f}\" x2=\"{1:.1f}\" y2=\"{0:.1f}\" stroke=\"#000\" "
-      "stroke-width=\"2\"/>\n<text x=\"12\" y=\"{2:.1f}\">5 m</text>\n"
+      "<line x1=\"12\" y1=\"{2:.1f}\" x2=\"{1:.1f}\" y2=\"{2:.1f}\" stroke=\"#000\" "
+      "stroke-width=\"2\"/>\n<text x=\"12\" y=\"{6:.1f}\">5 m</text>\n"
       "<text x=\"{3:.1f}\" y=\"{0:.1f}\" text-anchor=\"end\" fill=\"#444\">stems at {4:g}x "
       "DBH; orange: flagged; grey: outside {5:g} m; shaded: ground hidden behind stems; blue: "
       "camera path</text>\n",
-      y0, 12 + 5 * f.px_per_m(), y0 - 5, o.size_px - 12.0, o.stem_scale, o.plot_radius_m);
+      y0, 12 + 5 * f.px_per_m(), y0 - 16, o.size_px - 12.0, o.stem_scale, o.plot_radius_m, y0 - 21);
   svg += "</svg>\n";
   return svg;
 }

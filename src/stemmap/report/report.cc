@@ -198,7 +198,7 @@ std::string StandTableHtml(const std::vector<stems::DbhClass>& table) {
     most = std::max(most, c.stems_per_ha);
   }
   const int bar_w = 36, h = 140, top = 16, bottom = 20;
-  const int w = static_cast<int>(table.size()) * bar_w + 20;
+  const int w = std::max(240, static_cast<int>(table.size()) * bar_w + 20);
   std::string bars;
   for (size_t i = 0; i < table.size(); ++i) {
     const stems::DbhClass& c = table[i];
@@ -215,7 +215,7 @@ std::string StandTableHtml(const std::vector<stems::DbhClass>& table) {
       "<div class=\"stand\"><table>\n<tr><th>DBH class cm</th><th>stems</th><th>stems/ha</th>"
       "<th>basal area m²/ha</th></tr>\n{}</table>\n<svg xmlns=\"http://www.w3.org/2000/svg\" "
       "width=\"{}\" height=\"{}\" font-family=\"sans-serif\" font-size=\"10\">\n"
-      "<text x=\"10\" y=\"10\">stems/ha by DBH class (cm, lower bound)</text>\n{}</svg></div>\n",
+      "<text x=\"10\" y=\"10\">stems/ha by DBH class (from, cm)</text>\n{}</svg></div>\n",
       rows, w, h, bars);
 }
 

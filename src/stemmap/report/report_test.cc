@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 
@@ -115,6 +116,59 @@ TEST(WriteReport, ShowsEachTreeWithTicksOnItsEdges) {
   const double width_thumb = (edges->right.x() - edges->left.x()) * scale;
   EXPECT_NEAR(green_cols.back() - green_cols.front(), width_thumb, 3.0);
   EXPECT_NEAR(0.5 * (green_cols.back() + green_cols.front()), 0.5 * thumb.cols, 3.0);
+}
+
+// The plot sheet as a browser shows it: Debian's Chromium, headless, loads it with no console
+// message, every picture it names is there, and it renders to a picture.
+TEST(WriteReport, ChromiumRendersThePlotSheetCleanly) {
+  ASSERT_EQ(std::system("command -v chromium > /dev/null"), 0)
+      << "chromium is missing: scripts/install-deps.sh installs it";
+  const std::vector<stems::Stem> stems = {StemAt(6.0, 0.0, 0.3), StemAt(-4.0, 3.0, 0.2)};
+  const std::vector<StampedPose> keyframes = {{0.0, OutwardPose(0.0)}, {1.5, OutwardPose(2.5)}};
+  cv::Mat image(kCamera.height, kCamera.width, CV_8UC3, cv::Scalar(90, 120, 80));
+  const std::vector<cv::Mat> images = {image, image};
+  ReportInput in;
+  in.stems = &stems;
+  in.camera = &kCamera;
+  in.keyframes = &keyframes;
+  in.images = &images;
+  in.metadata = {{"arm radius", "1.00 m"}};
+  in.figures = {{"stems/ha", "64"}};
+  in.stand_table = {
+      {20.0, 25.0, 1, 31.8, 1.0}, {25.0, 30.0, 0, 0.0, 0.0}, {30.0, 35.0, 1, 31.8, 2.2}};
+  ReportOptions o;
+  o.map.north_azimuth_deg = 40.0;
+  const auto dir = std::filesystem::path(::testing::TempDir()) / "stemmap_report_chromium";
+  std::filesystem::remove_all(dir);
+  WriteReport(o, in, dir);
+  const std::string html = ReadFileToString(dir / "report.html");
+  for (size_t p = html.find("src=\""); p != std::string::npos; p = html.find("src=\"", p + 1)) {
+    const std::string src = html.substr(p + 5, html.find('"', p + 5) - p - 5);
+    EXPECT_TRUE(std::filesystem::exists(dir / src)) << src;
+  }
+  const std::string url = "file://" + std::filesystem::absolute(dir / "report.html").string();
+  const std::string chromium =
+      "chromium --headless=new --no-sandbox --disable-gpu --hide-scrollbars "
+      "--enable-logging=stderr "
+      "--v=0 --window-size=1000,1400 ";
+  ASSERT_EQ(std::system((chromium + "--dump-dom " + url + " > " + (dir / "dom.html").string() +
+                         " 2> " + (dir / "console.log").string())
+                            .c_str()),
+            0);
+  EXPECT_NE(ReadFileToString(dir / "dom.html").find("<h2>Stand table</h2>"), std::string::npos);
+  EXPECT_EQ(ReadFileToString(dir / "console.log").find("CONSOLE"), std::string::npos)
+      << ReadFileToString(dir / "console.log");
+  ASSERT_EQ(std::system((chromium + "--screenshot=" + (dir / "sheet.png").string() + " " + url +
+                         " 2> /dev/null")
+                            .c_str()),
+            0);
+  const cv::Mat shot = cv::imread((dir / "sheet.png").string());
+  ASSERT_FALSE(shot.empty());
+  EXPECT_EQ(shot.cols, 1000);
+  // Not a blank page: the map, the bars and the pictures put dark and green pixels on it.
+  cv::Scalar mean, sd;
+  cv::meanStdDev(shot, mean, sd);
+  EXPECT_GT(sd[1], 10.0);
 }
 
 TEST(WriteReport, ListsTheTreesWithoutPicturesWhenNoImagesWereKept) {
