@@ -12,12 +12,13 @@ out=demo
 # 15 fps, as the benchmark's fresh plots: it renders and runs in about five minutes on two cores.
 # (At 540p far stems lose half their stereo depth resolution, and positions beyond 8 m with it.)
 "$bin" simulate --seed 1 --kind managed --fps 15 --out "$out"
-# The field of view and arm height a forester would know for their phone and tripod.
-hfov=$(python3 -c "import json;print(json.load(open('$out/truth.json'))['intrinsics']['hfov_deg'])")
+# The phone's calibration (as `stemmap calibrate` measures it once per phone; here from the
+# simulated camera) and the arm height a forester measures at the tripod.
+python3 bench/truth_calibration.py "$out/truth.json" "$out/calibration.yaml"
 height=$(python3 -c "import json;print(json.load(open('$out/truth.json'))['camera_height_m'])")
 # Where the plot lies: a GPS reading of the centre and the compass bearing of the first view, so
 # the tree list comes out on the map (trees.gpkg, trees.geojson, cloud.las, bearings in trees.csv).
-"$bin" process "$out/video.mp4" --arm-radius 1.0 --hfov "$hfov" --camera-height "$height" \
+"$bin" process "$out/video.mp4" --arm-radius 1.0 --calibration "$out/calibration.yaml" --camera-height "$height" \
   --plot-centre 42.3105,-2.5231 --first-bearing 212 --declination 1.5 --export fortls,fsct \
   --out "$out/run"
 "$bin" evaluate --truth "$out/truth.json" --pred "$out/run/trees.csv" \

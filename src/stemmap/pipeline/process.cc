@@ -51,8 +51,17 @@ std::vector<std::pair<std::string, std::string>> RunMetadata(const ProcessOption
     if (s == summary.end() || !s->contains(key) || !(*s)[key].is_number()) return "unknown";
     return fmt::format(fmt::runtime(format), (*s)[key].get<double>());
   };
+  std::string recorded = "not in the video file";
+  if (summary.contains("track") && summary["track"].contains("video")) {
+    const nlohmann::json& v = summary["track"]["video"];
+    if (v.contains("creation_time") && v["creation_time"].is_string() &&
+        !v["creation_time"].get<std::string>().empty()) {
+      recorded = v["creation_time"].get<std::string>();
+    }
+  }
   std::vector<std::pair<std::string, std::string>> m = {
       {"video", video.filename().string()},
+      {"recorded", recorded},
       {"stemmap", STEMMAP_VERSION},
       {"arm radius", number("track", "arm_radius_m", "{:.2f} m")},
       {"camera height above the ground", number("track", "camera_height_m", "{:.2f} m")},

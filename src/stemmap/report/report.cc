@@ -197,7 +197,7 @@ std::string StandTableHtml(const std::vector<stems::DbhClass>& table) {
                         c.from_cm, c.to_cm, c.stems, c.stems_per_ha, c.basal_area_m2_per_ha);
     most = std::max(most, c.stems_per_ha);
   }
-  const int bar_w = 36, h = 140, top = 16, bottom = 20;
+  const int bar_w = 36, h = 150, top = 30, bottom = 20;
   const int w = std::max(240, static_cast<int>(table.size()) * bar_w + 20);
   std::string bars;
   for (size_t i = 0; i < table.size(); ++i) {

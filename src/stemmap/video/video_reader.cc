@@ -197,6 +197,11 @@ VideoReader::VideoReader(const fs::path& path, const VideoReaderOptions& options
 
   m.info.codec = codec->name;
   m.info.rotation_deg = DisplayRotationDeg(stream);
+  for (const AVDictionary* tags : {static_cast<const AVDictionary*>(m.fmt->metadata),
+                                   static_cast<const AVDictionary*>(stream->metadata)}) {
+    const AVDictionaryEntry* e = av_dict_get(tags, "creation_time", nullptr, 0);
+    if (e && e->value && m.info.creation_time.empty()) m.info.creation_time = e->value;
+  }
   const AVRational rate =
       stream->avg_frame_rate.num > 0 ? stream->avg_frame_rate : stream->r_frame_rate;
   m.info.fps = rate.num > 0 && rate.den > 0 ? av_q2d(rate) : 0.0;

@@ -19,6 +19,9 @@ struct VideoInfo {
   int64_t frame_count = 0;  // container's estimate; may be 0 when unknown
   int rotation_deg = 0;     // clockwise rotation applied to decoded frames (0, 90, 180, 270)
   std::string codec;
+  // When the recording was made, as the file says (its `creation_time` tag, ISO 8601 UTC, as
+  // phones write it); empty when the file does not say.
+  std::string creation_time;
 };
 
 struct DecodedFrame {

@@ -181,6 +181,16 @@ double MeanAbsDiff(const cv::Mat& a, const cv::Mat& b) {
   return cv::norm(a, b, cv::NORM_L1) / static_cast<double>(a.total() * a.channels());
 }
 
+// The recording's time as a phone tags it; nothing when the file has no tag.
+TEST(Video, ReadsWhenTheRecordingWasMade) {
+  if (!HaveFfmpegTool()) GTEST_SKIP() << "the ffmpeg tool is not installed";
+  const fs::path clip = WriteClip(TestDir() / "untagged.mp4", 3);
+  EXPECT_EQ(VideoReader(clip).info().creation_time, "");
+  const fs::path tagged = TestDir() / "tagged.mp4";
+  RunFfmpeg(clip, "-c copy -metadata creation_time=2026-05-04T10:11:12.000000Z", tagged);
+  EXPECT_EQ(VideoReader(tagged).info().creation_time, "2026-05-04T10:11:12.000000Z");
+}
+
 // The reader shows a rotated file as FFmpeg's own player does (its tool rotates on decode).
 TEST(Video, DisplayRotationTurnsFramesAsPlayersDo) {
   if (!HaveFfmpegTool()) GTEST_SKIP() << "the ffmpeg tool is not installed";
