@@ -36,6 +36,19 @@ void AddSimulateCommand(CLI::App& app) {
   sub->add_option("--fps", opt->fps, "Frames per second")->capture_default_str();
   sub->add_option("--seconds", opt->seconds, "Clip length (default: 40-50 s from the seed)");
   sub->add_option("--turns", opt->turns, "Arm turns over the clip (default: 1.05-1.15)");
+  sub->add_option("--start-deg", opt->start_deg,
+                  "Bearing of the first view in the stand's frame, degrees counter-clockwise from "
+                  "its x: another capture of the same stand (same seed)")
+      ->capture_default_str();
+  sub->add_option_function<std::vector<double>>(
+         "--centre-offset",
+         [opt](const std::vector<double>& v) {
+           opt->centre_offset_x_m = v[0];
+           opt->centre_offset_y_m = v[1];
+         },
+         "The tripod's offset DX,DY (m) from the stand's centre, in the stand's frame")
+      ->delimiter(',')
+      ->expected(2);
   sub->add_option("--arm-radius", opt->arm_radius_m, "Arm length (m)")->capture_default_str();
   sub->add_option("--hfov", opt->hfov_deg, "Horizontal field of view (deg, default: 60-75)");
   sub->add_option("--k1", opt->k1, "Radial distortion of the simulated lens")

@@ -20,6 +20,7 @@
 #include "stemmap/core/io.h"
 #include "stemmap/core/progress.h"
 #include "stemmap/core/rng.h"
+#include "stemmap/core/units.h"
 #include "stemmap/sim/render.h"
 #include "stemmap/sim/rig.h"
 #include "stemmap/sim/sensor.h"
@@ -98,6 +99,11 @@ void SimulateOptions::Check() const {
   }
   if (std::abs(k1) > 0.3) throw InputError("|k1| must be at most 0.3");
   if (stills < 0 || stills > 20) throw InputError("stills must be in [0, 20]");
+  if (!std::isfinite(start_deg)) throw InputError("--start-deg must be a number of degrees");
+  // The scene reaches 40 m around the stand's centre; a plot of 11 m must lie within it.
+  if (!(std::hypot(centre_offset_x_m, centre_offset_y_m) <= 10.0)) {
+    throw InputError("--centre-offset must lie within 10 m of the stand's centre");
+  }
 }
 
 std::string SimulateSummary::BriefReport() const {
@@ -122,7 +128,9 @@ void to_json(nlohmann::json& j, const SimulateOptions& o) {
        {"layout_csv", o.layout_csv.string()},
        {"layout_plot", o.layout_plot},
        {"stills", o.stills},
-       {"truth_only", o.truth_only}};
+       {"truth_only", o.truth_only},
+       {"start_deg", o.start_deg},
+       {"centre_offset_m", {o.centre_offset_x_m, o.centre_offset_y_m}}};
 }
 
 SimulateSummary RunSimulate(const SimulateOptions& o) {
@@ -156,6 +164,11 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
   rig.direction = rng.Bernoulli(0.5) ? 1 : -1;
   rig.seed = rng.NextU64();
   const std::vector<RigFrame> frames = SimulateRig(rig);
+  // The capture's plot frame in the stand: the rig turns about the tripod, on the stand's ground.
+  Rigid3d stand_from_plot;
+  stand_from_plot.rotation = Eigen::AngleAxisd(o.start_deg * kDeg, Eigen::Vector3d::UnitZ());
+  stand_from_plot.translation = {o.centre_offset_x_m, o.centre_offset_y_m,
+                                 scene.ground.Height(o.centre_offset_x_m, o.centre_offset_y_m)};
 
   SensorParams sensor_params;
   sensor_params.exposure_time_s = 1.0 / rng.Uniform(60.0, 120.0);
@@ -164,7 +177,7 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
 
   fs::create_directories(o.out_dir);
   WriteJsonAtomic(o.out_dir / "simulate_options.json", nlohmann::json(o));
-  WriteTruth(o.out_dir / "truth.json", scene, camera, rig, frames, o.seed);
+  WriteTruth(o.out_dir / "truth.json", scene, camera, rig, frames, o.seed, stand_from_plot);
   std::vector<StampedPose> poses;
   for (const RigFrame& f : frames) poses.push_back({f.t_s, f.world_from_cam});
   WriteTumTrajectory(o.out_dir / "trajectory_truth.tum", poses);
@@ -174,7 +187,8 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
   for (const SceneTree& t : scene.trees) {
     if (t.sapling) continue;
     ++summary.all_trees;
-    if (t.stem.AxisPoint(t.stem.params().s_bh_m).head<2>().norm() <= 10.0) ++summary.plot_trees;
+    const Eigen::Vector3d bh = stand_from_plot.Inverse() * t.stem.AxisPoint(t.stem.params().s_bh_m);
+    if (bh.head<2>().norm() <= 10.0) ++summary.plot_trees;
   }
   if (o.truth_only) {
     summary.wall_s =
@@ -241,7 +255,7 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
     } join_on_exit{queue, develop};
     for (size_t i = 0; i < frames.size(); ++i) {
       const auto t0 = std::chrono::steady_clock::now();
-      RenderBuffers buffers = renderer.Render(frames[i].world_from_cam);
+      RenderBuffers buffers = renderer.Render(stand_from_plot * frames[i].world_from_cam);
       summary.render_s +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (!queue.Push({i, std::move(buffers)})) break;  // the developing thread failed

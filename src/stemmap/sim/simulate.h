@@ -26,6 +26,12 @@ struct SimulateOptions {
   std::filesystem::path layout_csv;
   std::string layout_plot;  // plot id inside the layout (default: the first)
   int stills = 3;           // PNG frames written to out_dir/stills
+  // Where this capture stands in the stand (the same stand for the same seed): the first view's
+  // bearing, counter-clockwise from the stand's x (degrees), and the tripod's offset from the
+  // stand's centre (m, stand frame). The truth is in the capture's plot frame, with the stand's
+  // pose of it (`stand_from_plot`).
+  double start_deg = 0.0;
+  double centre_offset_x_m = 0.0, centre_offset_y_m = 0.0;
   bool truth_only = false;  // write the truth and trajectory, render nothing
   void Check() const;
 };

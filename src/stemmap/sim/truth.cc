@@ -13,13 +13,23 @@ namespace {
 
 constexpr double kRad2Deg = 180.0 / std::numbers::pi;
 
-nlohmann::json TreeJson(const SceneTree& t) {
+// The plot frame's x in the stand, as an angle counter-clockwise from the stand's x.
+double PlotYawRad(const Rigid3d& stand_from_plot) {
+  const Eigen::Vector3d x = stand_from_plot.rotation * Eigen::Vector3d::UnitX();
+  return std::atan2(x.y(), x.x());
+}
+
+nlohmann::json TreeJson(const SceneTree& t, const Rigid3d& stand_from_plot) {
   const Stem& stem = t.stem;
   const StemParams& p = stem.params();
-  const Eigen::Vector3d bh = stem.AxisPoint(p.s_bh_m);
+  const Eigen::Vector3d stand_bh = stem.AxisPoint(p.s_bh_m);
+  const Eigen::Vector3d bh = stand_from_plot.Inverse() * stand_bh;
   // Seen from the plot centre: the width a silhouette shows, which an elliptic stem makes differ
   // from the girth's diameter.
-  const Stem::Section sec = stem.MeasureSection(p.s_bh_m, bh.head<2>().normalized());
+  const Eigen::Vector2d from_centre =
+      (stand_bh.head<2>() - stand_from_plot.translation.head<2>()).normalized();
+  const Stem::Section sec = stem.MeasureSection(p.s_bh_m, from_centre);
+  const double turn_rad = PlotYawRad(stand_from_plot);
   return {{"id", t.id},
           {"x_m", bh.x()},
           {"y_m", bh.y()},
@@ -29,7 +39,7 @@ nlohmann::json TreeJson(const SceneTree& t) {
           {"minor_cm", 100.0 * sec.minor_m},
           {"width_from_centre_cm", 100.0 * sec.across_m},
           {"lean_deg", p.lean_rad * kRad2Deg},
-          {"lean_azimuth_deg", p.lean_azimuth_rad * kRad2Deg},
+          {"lean_azimuth_deg", (p.lean_azimuth_rad - turn_rad) * kRad2Deg},
           {"distance_m", bh.head<2>().norm()},
           {"azimuth_deg", std::atan2(bh.y(), bh.x()) * kRad2Deg},
           {"height_m", p.height_m}};
@@ -38,7 +48,8 @@ nlohmann::json TreeJson(const SceneTree& t) {
 }  // namespace
 
 void WriteTruth(const std::filesystem::path& path, const Scene& scene, const PinholeCamera& camera,
-                const RigParams& rig, const std::vector<RigFrame>& frames, uint64_t seed) {
+                const RigParams& rig, const std::vector<RigFrame>& frames, uint64_t seed,
+                const Rigid3d& stand_from_plot) {
   nlohmann::json j;
   j["format"] = "stemmap-truth/1";
   j["frame"] =
@@ -65,7 +76,12 @@ void WriteTruth(const std::filesystem::path& path, const Scene& scene, const Pin
               {"wobble_deg", rig.wobble_deg}};
   j["breast_height_m"] = kBreastHeightM;
   j["ground_slope_deg"] = scene.ground.slope_deg();
-  const Eigen::Vector3d& s = scene.light.sun_dir_world;
+  const Eigen::Vector3d s = stand_from_plot.rotation.conjugate() * scene.light.sun_dir_world;
+  const Eigen::Vector3d& o = stand_from_plot.translation;
+  j["stand_from_plot"] = {{"x_m", o.x()},
+                          {"y_m", o.y()},
+                          {"z_m", o.z()},
+                          {"yaw_deg", PlotYawRad(stand_from_plot) * kRad2Deg}};
   j["sun"] = {{"elevation_deg", std::asin(s.z()) * kRad2Deg},
               {"azimuth_deg", std::atan2(s.y(), s.x()) * kRad2Deg}};
   j["trees"] = nlohmann::json::array();
@@ -74,7 +90,9 @@ void WriteTruth(const std::filesystem::path& path, const Scene& scene, const Pin
   // order.
   std::vector<nlohmann::json> tree_json(scene.trees.size());
 #pragma omp parallel for schedule(dynamic)
-  for (size_t i = 0; i < scene.trees.size(); ++i) tree_json[i] = TreeJson(scene.trees[i]);
+  for (size_t i = 0; i < scene.trees.size(); ++i) {
+    tree_json[i] = TreeJson(scene.trees[i], stand_from_plot);
+  }
   for (size_t i = 0; i < scene.trees.size(); ++i) {
     (scene.trees[i].sapling ? j["saplings"] : j["trees"]).push_back(std::move(tree_json[i]));
   }

@@ -11,7 +11,10 @@ namespace stemmap::sim {
 
 // Writes truth.json: intrinsics, rig, every tree's position and DBH at breast height, saplings
 // apart, and the pose of every frame. Format in docs/output-format.md.
+// `frames` are in the capture's plot frame; the scene is in the stand's, where the plot frame
+// stands at `stand_from_plot`. Trees, sun and poses are written in the plot frame.
 void WriteTruth(const std::filesystem::path& path, const Scene& scene, const PinholeCamera& camera,
-                const RigParams& rig, const std::vector<RigFrame>& frames, uint64_t seed);
+                const RigParams& rig, const std::vector<RigFrame>& frames, uint64_t seed,
+                const Rigid3d& stand_from_plot = {});
 
 }  // namespace stemmap::sim
