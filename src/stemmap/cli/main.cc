@@ -51,6 +51,7 @@ int main(int argc, char** argv) {
   stemmap::cli::AddTrackCommand(app);
   stemmap::cli::AddProcessCommand(app);
   stemmap::cli::AddStemsCommand(app);
+  stemmap::cli::AddMergeCommand(app);
   stemmap::cli::AddEvaluateCommand(app);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,162 @@
+#include "stemmap/merge/register.h"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+
+#include "stemmap/core/error.h"
+#include "stemmap/core/units.h"
+
+namespace stemmap::merge {
+
+namespace {
+
+struct Transform2d {
+  double yaw_rad = 0.0;
+  Eigen::Vector2d t = Eigen::Vector2d::Zero();
+  Eigen::Vector2d operator*(const Eigen::Vector2d& p) const {
+    const double c = std::cos(yaw_rad), s = std::sin(yaw_rad);
+    return Eigen::Vector2d(c * p.x() - s * p.y(), s * p.x() + c * p.y()) + t;
+  }
+};
+
+bool LikeDbh(const RegisterOptions& o, double a_cm, double b_cm) {
+  return std::abs(a_cm - b_cm) <= std::max(o.dbh_slack_cm, o.dbh_share * std::max(a_cm, b_cm));
+}
+
+// The transform taking b1 → a1 and b2 → a2 as well as a rotation can (their midpoints exactly).
+Transform2d FromTwoPairs(const Eigen::Vector2d& a1, const Eigen::Vector2d& a2,
+                         const Eigen::Vector2d& b1, const Eigen::Vector2d& b2) {
+  const Eigen::Vector2d da = a2 - a1, db = b2 - b1;
+  Transform2d x;
+  x.yaw_rad = std::atan2(da.y(), da.x()) - std::atan2(db.y(), db.x());
+  x.t = Eigen::Vector2d::Zero();
+  x.t = 0.5 * (a1 + a2) - x * (0.5 * (b1 + b2));
+  return x;
+}
+
+// Greedy one-to-one matches, nearest first: each moved stem of `from` onto a stem of `to` of like
+// DBH within the radius.
+std::vector<std::pair<int, int>> Match(const RegisterOptions& o, const std::vector<MapStem>& to,
+                                       const std::vector<MapStem>& from, const Transform2d& x) {
+  struct Candidate {
+    double d;
+    int i, j;
+  };
+  std::vector<Candidate> c;
+  for (size_t j = 0; j < from.size(); ++j) {
+    const Eigen::Vector2d p = x * from[j].xy;
+    for (size_t i = 0; i < to.size(); ++i) {
+      const double d = (to[i].xy - p).norm();
+      if (d <= o.match_radius_m && LikeDbh(o, to[i].dbh_cm, from[j].dbh_cm)) {
+        c.push_back({d, static_cast<int>(i), static_cast<int>(j)});
+      }
+    }
+  }
+  std::ranges::sort(c, [](const Candidate& a, const Candidate& b) {
+    return std::tie(a.d, a.i, a.j) < std::tie(b.d, b.i, b.j);
+  });
+  std::vector<char> used_to(to.size(), 0), used_from(from.size(), 0);
+  std::vector<std::pair<int, int>> m;
+  for (const Candidate& k : c) {
+    if (used_to[k.i] || used_from[k.j]) continue;
+    used_to[k.i] = used_from[k.j] = 1;
+    m.emplace_back(k.i, k.j);
+  }
+  std::ranges::sort(m);
+  return m;
+}
+
+// Least squares rotation and translation of the matched stems (2-D Kabsch).
+Transform2d Fit(const std::vector<MapStem>& to, const std::vector<MapStem>& from,
+                const std::vector<std::pair<int, int>>& m) {
+  Eigen::Vector2d ca = Eigen::Vector2d::Zero(), cb = Eigen::Vector2d::Zero();
+  for (const auto& [i, j] : m) {
+    ca += to[i].xy;
+    cb += from[j].xy;
+  }
+  ca /= m.size();
+  cb /= m.size();
+  double sxx = 0.0, sxy = 0.0;  // Σ b·a and Σ b×a of the centred points
+  for (const auto& [i, j] : m) {
+    const Eigen::Vector2d a = to[i].xy - ca, b = from[j].xy - cb;
+    sxx += b.dot(a);
+    sxy += b.x() * a.y() - b.y() * a.x();
+  }
+  Transform2d x;
+  x.yaw_rad = std::atan2(sxy, sxx);
+  x.t = ca - x * cb;  // x.t is zero here, so x * cb is the rotated centroid
+  return x;
+}
+
+double Rms(const std::vector<MapStem>& to, const std::vector<MapStem>& from,
+           const std::vector<std::pair<int, int>>& m, const Transform2d& x) {
+  double sum = 0.0;
+  for (const auto& [i, j] : m) sum += (to[i].xy - x * from[j].xy).squaredNorm();
+  return m.empty() ? 0.0 : std::sqrt(sum / m.size());
+}
+
+}  // namespace
+
+void RegisterOptions::Check() const {
+  if (!(match_radius_m > 0) || !(dbh_share >= 0) || !(dbh_slack_cm >= 0) || !(min_spacing_m > 0) ||
+      !(spacing_tolerance_m > 0) || min_matches < 2) {
+    throw InputError("registration options must be positive (and at least 2 matches)");
+  }
+}
+
+Eigen::Vector2d Registration::Apply(const Eigen::Vector2d& from_xy) const {
+  return Transform2d{yaw_deg * kDeg, translation_m} * from_xy;
+}
+
+Registration RegisterMaps(const RegisterOptions& o, const std::vector<MapStem>& to,
+                          const std::vector<MapStem>& from) {
+  o.Check();
+  // Every pair of like stems is a candidate correspondence.
+  std::vector<std::pair<int, int>> like;
+  for (size_t i = 0; i < to.size(); ++i) {
+    for (size_t j = 0; j < from.size(); ++j) {
+      if (LikeDbh(o, to[i].dbh_cm, from[j].dbh_cm)) like.emplace_back(i, j);
+    }
+  }
+  Transform2d best;
+  size_t best_count = 0;
+  double best_rms = kInf;
+  for (size_t p = 0; p < like.size(); ++p) {
+    const auto [i1, j1] = like[p];
+    for (size_t q = p + 1; q < like.size(); ++q) {
+      const auto [i2, j2] = like[q];
+      if (i1 == i2 || j1 == j2) continue;
+      const double da = (to[i1].xy - to[i2].xy).norm(), db = (from[j1].xy - from[j2].xy).norm();
+      if (da < o.min_spacing_m || std::abs(da - db) > o.spacing_tolerance_m) continue;
+      const Transform2d x = FromTwoPairs(to[i1].xy, to[i2].xy, from[j1].xy, from[j2].xy);
+      const std::vector<std::pair<int, int>> m = Match(o, to, from, x);
+      if (m.size() < best_count) continue;
+      const double rms = Rms(to, from, m, x);
+      if (m.size() > best_count || rms < best_rms) {
+        best = x;
+        best_count = m.size();
+        best_rms = rms;
+      }
+    }
+  }
+  Registration r;
+  if (static_cast<int>(best_count) < o.min_matches) return r;
+  std::vector<std::pair<int, int>> m = Match(o, to, from, best);
+  for (int round = 0; round < 5; ++round) {
+    best = Fit(to, from, m);
+    std::vector<std::pair<int, int>> again = Match(o, to, from, best);
+    if (again == m) break;
+    m = std::move(again);
+  }
+  r.ok = static_cast<int>(m.size()) >= o.min_matches;
+  r.yaw_deg = std::remainder(best.yaw_rad, 2 * M_PI) / kDeg;
+  r.translation_m = best.t;
+  r.rms_m = Rms(to, from, m, best);
+  r.matched_share =
+      static_cast<double>(m.size()) / std::max<size_t>(1, std::min(to.size(), from.size()));
+  r.matches = std::move(m);
+  return r;
+}
+
+}  // namespace stemmap::merge

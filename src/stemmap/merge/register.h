@@ -1,0 +1,47 @@
+#pragma once
+
+// Registration of two stem maps of one plot: the rotation and translation that put the stems of
+// one run onto those of another, from the maps alone (no initial guess), robust to stems only
+// one run found.
+//
+// Stems keep their DBH whatever the capture, and their distances to each other: every two pairs
+// of stems of like DBH whose spacing agrees in both maps propose a transform (exhaustively, so
+// the result does not depend on a random draw); the proposal that carries the most stems onto a
+// stem of like DBH wins, and is refined by least squares on those stems (2-D Kabsch) until the
+// matches settle.
+#include <Eigen/Core>
+#include <vector>
+
+namespace stemmap::merge {
+
+struct MapStem {
+  Eigen::Vector2d xy = Eigen::Vector2d::Zero();  // m, the run's plot frame
+  double dbh_cm = 0.0;
+};
+
+struct RegisterOptions {
+  double match_radius_m = 0.25;  // a moved stem matches a stem within this (m)
+  // Stems match only when their DBH agree within this share of the larger, or dbh_slack_cm.
+  double dbh_share = 0.2;
+  double dbh_slack_cm = 3.0;
+  double min_spacing_m = 1.0;  // a proposal needs its two stems at least this far apart (m)
+  double spacing_tolerance_m = 0.15;
+  int min_matches = 3;  // fewer stems matched: no registration
+  void Check() const;
+};
+
+// `to_from_from`: a point of the `from` map in the `to` map's frame is rotation · p + translation.
+struct Registration {
+  bool ok = false;
+  double yaw_deg = 0.0;
+  Eigen::Vector2d translation_m = Eigen::Vector2d::Zero();
+  std::vector<std::pair<int, int>> matches;  // (index in `to`, index in `from`)
+  double rms_m = 0.0;                        // of the matched stems after the transform
+  double matched_share = 0.0;                // matches / the smaller map's stems
+  Eigen::Vector2d Apply(const Eigen::Vector2d& from_xy) const;
+};
+
+Registration RegisterMaps(const RegisterOptions& options, const std::vector<MapStem>& to,
+                          const std::vector<MapStem>& from);
+
+}  // namespace stemmap::merge
