@@ -52,6 +52,7 @@ int main(int argc, char** argv) {
   stemmap::cli::AddProcessCommand(app);
   stemmap::cli::AddStemsCommand(app);
   stemmap::cli::AddMergeCommand(app);
+  stemmap::cli::AddCompareCommand(app);
   stemmap::cli::AddEvaluateCommand(app);
   try {
     app.parse(argc, argv);

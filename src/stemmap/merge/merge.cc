@@ -4,10 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
+#include "stemmap/merge/csv.h"
 
 namespace stemmap::merge {
 
@@ -162,38 +162,17 @@ nlohmann::json MergeResult::Summary() const {
 std::vector<MapStem> ReadRunStems(const fs::path& run_dir) {
   const fs::path path = run_dir / "trees.csv";
   if (!fs::is_regular_file(path)) {
-    throw InputError(fmt::format("{} has no trees.csv: merge takes `stemmap process` run folders",
+    throw InputError(fmt::format("{} has no trees.csv: a `stemmap process` run folder is needed",
                                  run_dir.string()));
   }
-  std::istringstream in(ReadFileToString(path));
-  std::string line;
-  std::getline(in, line);
-  auto split = [](const std::string& s) {
-    std::vector<std::string> f;
-    std::stringstream ss(s);
-    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-    return f;
-  };
-  const std::vector<std::string> header = split(line);
-  auto column = [&](const char* name) {
-    const auto it = std::ranges::find(header, name);
-    if (it == header.end())
-      throw InputError(fmt::format("{} has no {} column", path.string(), name));
-    return static_cast<size_t>(it - header.begin());
-  };
-  const size_t ix = column("x_m"), iy = column("y_m"), idbh = column("dbh_cm");
+  const CsvTable t = ReadCsvTable(path);
+  const int ix = t.Column({"x_m"}), iy = t.Column({"y_m"}), idbh = t.Column({"dbh_cm"});
+  if (ix < 0 || iy < 0 || idbh < 0) {
+    throw InputError(fmt::format("{} needs columns x_m, y_m and dbh_cm", path.string()));
+  }
   std::vector<MapStem> stems;
-  for (int n = 2; std::getline(in, line); ++n) {
-    if (line.empty()) continue;
-    const std::vector<std::string> f = split(line);
-    try {
-      if (std::max({ix, iy, idbh}) >= f.size()) throw std::invalid_argument("short row");
-      MapStem s{{std::stod(f[ix]), std::stod(f[iy])}, std::stod(f[idbh])};
-      if (!s.xy.allFinite() || !std::isfinite(s.dbh_cm)) throw std::invalid_argument("not finite");
-      stems.push_back(s);
-    } catch (const std::exception&) {
-      throw InputError(fmt::format("{} line {}: not a tree row", path.string(), n));
-    }
+  for (size_t r = 0; r < t.rows.size(); ++r) {
+    stems.push_back({{t.Number(r, ix), t.Number(r, iy)}, t.Number(r, idbh)});
   }
   return stems;
 }
