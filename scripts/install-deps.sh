@@ -10,6 +10,7 @@ packages=(
   libgdal-dev libgtest-dev libgmock-dev libbenchmark-dev
   clang libclang-rt-14-dev libomp-dev  # the fuzz targets (scripts/fuzz.sh)
   chromium  # the report test renders the plot sheet headless
+  parallel  # the batch test spreads a manifest with GNU parallel
 )
 
 missing=()

@@ -20,6 +20,7 @@ void AddProcessCommand(CLI::App& app);
 void AddStemsCommand(CLI::App& app);
 void AddMergeCommand(CLI::App& app);
 void AddCompareCommand(CLI::App& app);
+void AddBatchCommand(CLI::App& app);
 
 // The video, output folder and camera/rig options shared by `track` and `process`.
 void AddTrackOptions(CLI::App* sub, track::TrackOptions* opt, std::filesystem::path* video,

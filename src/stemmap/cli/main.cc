@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   stemmap::cli::AddStemsCommand(app);
   stemmap::cli::AddMergeCommand(app);
   stemmap::cli::AddCompareCommand(app);
+  stemmap::cli::AddBatchCommand(app);
   stemmap::cli::AddEvaluateCommand(app);
   try {
     app.parse(argc, argv);

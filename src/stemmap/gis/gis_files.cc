@@ -63,6 +63,16 @@ void AddFeature(OGRLayer* layer, OGRFeature* feature) {
   }
 }
 
+// A point feature at (x, y), its fields set by `set_fields(OGRFeature&)`.
+template <typename SetFields>
+void AddPoint(OGRLayer* layer, double x, double y, SetFields set_fields) {
+  OGRFeature feature(layer->GetLayerDefn());
+  set_fields(feature);
+  OGRPoint point(x, y);
+  feature.SetGeometry(&point);
+  AddFeature(layer, &feature);
+}
+
 // The trees layer: every trees.csv column, in its order, on points at `gis_xy`.
 void WriteTreesLayer(GDALDataset* ds, const OGRSpatialReference& srs,
                      const std::vector<TreeRow>& rows, const std::vector<Eigen::Vector2d>& gis_xy,
@@ -215,6 +225,49 @@ GisSummary WriteGisFiles(const Georeference& georef, const GisInput& in, const f
     summary.files.push_back(geojson);
   }
   return summary;
+}
+
+void WriteInventoryGeoPackage(const fs::path& path, const std::vector<InventoryPlot>& plots,
+                              const std::vector<InventoryTree>& trees) {
+  RegisterGdalOnce();
+  ScopedConfig date("OGR_CURRENT_DATE", "2000-01-01T00:00:00.000Z");
+  OGRSpatialReference wgs84;
+  wgs84.SetWellKnownGeogCS("WGS84");
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  WriteDatasetAtomic("GPKG", path, [&](GDALDataset* ds) {
+    ds->StartTransaction();
+    OGRLayer* p = CreateLayer(ds, "plots", wgs84, wkbPoint, nullptr);
+    AddField(p, "plot_id", OFTString);
+    AddField(p, "stems", OFTInteger);
+    for (const char* name : {"stems_per_ha", "basal_area_m2_per_ha", "qmd_cm"}) {
+      AddField(p, name, OFTReal);
+    }
+    for (const InventoryPlot& plot : plots) {
+      AddPoint(p, plot.lon_deg, plot.lat_deg, [&](OGRFeature& f) {
+        f.SetField("plot_id", plot.plot_id.c_str());
+        f.SetField("stems", plot.stems);
+        f.SetField("stems_per_ha", plot.stems_per_ha);
+        f.SetField("basal_area_m2_per_ha", plot.basal_area_m2_per_ha);
+        f.SetField("qmd_cm", plot.qmd_cm);
+      });
+    }
+    OGRLayer* t = CreateLayer(ds, "trees", wgs84, wkbPoint, nullptr);
+    AddField(t, "plot_id", OFTString);
+    AddField(t, "tree_id", OFTInteger);
+    AddField(t, "dbh_cm", OFTReal);
+    AddField(t, "dbh_sd_cm", OFTReal);
+    for (const InventoryTree& tree : trees) {
+      AddPoint(t, tree.lon_deg, tree.lat_deg, [&](OGRFeature& f) {
+        f.SetField("plot_id", tree.plot_id.c_str());
+        f.SetField("tree_id", tree.tree_id);
+        f.SetField("dbh_cm", tree.dbh_cm);
+        f.SetField("dbh_sd_cm", tree.dbh_sd_cm);
+      });
+    }
+    if (ds->CommitTransaction() != OGRERR_NONE) {
+      throw InputError(fmt::format("cannot write {}: {}", path.string(), GdalError()));
+    }
+  });
 }
 
 }  // namespace stemmap::gis
