@@ -9,7 +9,7 @@ cmake --build build
 bin=./build/src/stemmap/cli/stemmap
 out=demo
 # A capture at the protocol's own speed (one turn in 40-50 s, as the seed draws it) in 1080p at
-# 15 fps, as the benchmark's fresh plots: it renders and runs in about five minutes on two cores.
+# 15 fps, as the benchmark's fresh plots: it renders and runs in about seven minutes on two cores.
 # (At 540p far stems lose half their stereo depth resolution, and positions beyond 8 m with it.)
 "$bin" simulate --seed 1 --kind managed --fps 15 --out "$out"
 # The phone's calibration (as `stemmap calibrate` measures it once per phone; here from the
