@@ -41,6 +41,9 @@ void MeasureOptions::Check() const {
   if (!(wide_fit_min_bark_ncc >= -1 && wide_fit_min_bark_ncc <= 1)) {
     throw InputError("the bark correlation a wide fit needs must lie in [-1, 1]");
   }
+  if (!(loose_fit_rms_px > 0)) {
+    throw InputError("the rms beyond which a narrower fit is loose must be positive");
+  }
   if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
     throw InputError(
         "the share of a part's width below which its cores are tried must lie in [0, 1]");

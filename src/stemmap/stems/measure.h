@@ -63,6 +63,11 @@ struct MeasureOptions {
   // enough pairs (BarkDepthOptions::min_pairs).
   double wide_fit_scale = 2.0;
   double wide_fit_min_bark_ncc = 0.5;
+  // A fit narrower than the cloud whose rays miss its circle by more than this rms (px at the
+  // stem) does not outrank the cloud's width: its edges are not one stem's outline (bark
+  // furrows, a shadow's border, a neighbour's edge in some views), and the points' width,
+  // measured on the stem's surface, stands.
+  double loose_fit_rms_px = 3.0;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -71,7 +76,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, ground, uncertainty, require_silhouette,
     keep_bark_confirmed_cloud, one_sided_max_over_cloud, one_sided_min_cloud_radius_m,
     min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
-    larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc)
+    larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

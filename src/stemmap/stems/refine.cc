@@ -59,7 +59,8 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   // pairs is wider than its points: silhouettes on both sides in several views that agree to
   // about a pixel outrank them, and a part with little surface at breast height needs them.
   const double r0 = CloudRadius(s);
-  const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01;
+  const bool loose_narrower = f.radius_m < r0 && f.rms_m > o.loose_fit_rms_px * px_m;
+  const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01 && !loose_narrower;
   const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
   const bool wider_two_sided =
       two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;

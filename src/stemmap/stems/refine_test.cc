@@ -350,6 +350,33 @@ TEST(JudgeSilhouetteFit, KeepsTheCloudWhenTheFitLockedOntoSomethingElse) {
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
 }
 
+// A fit narrower than the points, within the cloud's tolerance, is used while its rays agree to
+// a few pixels; once they scatter beyond loose_fit_rms_px it is no stem's outline and the
+// points' width stands. Swept over the narrowing and the scatter.
+TEST(JudgeSilhouetteFit, ALooseNarrowerFitKeepsTheCloudWhateverTheNarrowing) {
+  const MeasureOptions o;
+  for (double share : {0.7, 0.8, 0.9, 0.97}) {
+    for (double rms_px : {0.5, 2.0, 2.9, 3.2, 5.0, 8.0}) {
+      Case c;
+      c.fit.radius_m = share * 0.15;
+      c.fit.rms_m = rms_px * c.px_m;
+      c.fit.two_sided_views = 2;  // neither two-sided rule applies: the cloud's tolerance does
+      const SilhouetteVerdict want =
+          rms_px > o.loose_fit_rms_px ? SilhouetteVerdict::kKeepCloud : SilhouetteVerdict::kUse;
+      EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), want)
+          << "share " << share << " rms " << rms_px << " px";
+    }
+  }
+}
+
+// The same scatter on a fit wider than the points does not touch the narrower-fit rule.
+TEST(JudgeSilhouetteFit, ALooseWiderFitIsJudgedByTheOtherRules) {
+  Case c;
+  c.fit.radius_m = 0.165;
+  c.fit.rms_m = 5.0 * c.px_m;
+  EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
+}
+
 TEST(JudgeSilhouetteFit, APartWithoutSilhouettesIsDroppedUnlessUnconfirmedPartsAreKept) {
   Case c;
   c.fit.ok = false;

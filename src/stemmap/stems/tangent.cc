@@ -441,6 +441,18 @@ TangentFit SettleFewViewsFit(const TangentOptions& o, const TangentViews& v, con
 
 }  // namespace
 
+bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const TangentFit& wider,
+                      const Eigen::Vector2d& centre0, double radius0, double px_m) {
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
+  const bool as_tight =
+      wider.rms_m <= fit.rms_m || (wider.two_sided_views > fit.two_sided_views &&
+                                   wider.rms_m <= fit.rms_m + o.recheck_rms_slack_px * px_m);
+  return wider.ok && 2 * wider.two_sided_views >= wider.tried_views && as_tight &&
+         wider.radius_m > o.recheck_min_gain * fit.radius_m &&
+         wider.radius_m < o.WidestFitScale() * radius0 &&
+         std::abs(across.dot(wider.centre - fit.centre)) < o.max_sideways_m;
+}
+
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z,
                           const std::function<bool(const TangentFit&)>& accept) {
@@ -454,12 +466,7 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     if (o.recheck_wider_scale <= 0) return fit;
     const TangentFit wider =
         FitTangentRaysFrom(o, v, centre0, radius0, o.recheck_wider_scale * radius0, breast_z);
-    const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
-    const bool cleaner = wider.ok && 2 * wider.two_sided_views >= wider.tried_views &&
-                         wider.rms_m <= fit.rms_m &&
-                         wider.radius_m > o.recheck_min_gain * fit.radius_m &&
-                         wider.radius_m < o.WidestFitScale() * radius0 &&
-                         std::abs(across.dot(wider.centre - fit.centre)) < o.max_sideways_m;
+    const bool cleaner = WiderRecheckWins(o, fit, wider, centre0, radius0, px_m);
     if (cleaner) {
       spdlog::debug("tangent: wider start ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm over r {:.3f}",
                     wider.centre.x(), wider.centre.y(), wider.radius_m, 1000 * wider.rms_m,

@@ -51,6 +51,10 @@ struct TangentOptions {
   // replaces it when as clean (two-sided in most views, rms no larger) and this much wider.
   double recheck_wider_scale = 1.6;
   double recheck_min_gain = 1.1;
+  // Or when two-sided in more views with an rms at most this much larger (px at the stem): a
+  // fit that closed inside the stem on bark or a shadow's edge loses both sides in the views
+  // where that edge fades, and its rms is no better than the whole stem's by more than noise.
+  double recheck_rms_slack_px = 0.25;
   // And from these, below 1: the cloud merged the stem with what stands close beside it (a
   // sapling, a shrub), and a start that wide takes their gaps for the stem's inside.
   std::vector<double> narrow_start_scales = {0.5};
@@ -105,10 +109,10 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TangentOptions, background_parallax_px, max_neighbour_offset, rows_half, band_half_height_m,
     search_px, search_share, min_contrast, min_brightness_contrast, huber_m,
     prior_share_of_distance, min_rays, max_sideways_m, occluder_min_gap_m, refits,
-    wide_start_scales, recheck_wider_scale, recheck_min_gain, narrow_start_scales,
-    narrow_max_rms_px, narrow_min_share, sideways_start_shifts, pooled_min_extra_rays,
-    few_views_min_two_sided, few_views_min_share, settle_few_views, refine_on_brightness,
-    blur_sigma_px)
+    wide_start_scales, recheck_wider_scale, recheck_min_gain, recheck_rms_slack_px,
+    narrow_start_scales, narrow_max_rms_px, narrow_min_share, sideways_start_shifts,
+    pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share, settle_few_views,
+    refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
@@ -164,6 +168,13 @@ bool SettledFitReplaces(const TangentOptions& o, const TangentFit& few, const Ta
 
 // Blurs the keyframe images in place as `o.blur_sigma_px` says (before FitTangentRays).
 void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);
+
+// Whether a fit from the wider recheck start replaces a fit two-sided in most views: two-sided in
+// most of its own views, as tight (or two-sided in more views within recheck_rms_slack_px; px_m:
+// metres a pixel spans at the stem), wider by recheck_min_gain, within the widest scale of
+// radius0 and beside the fit by less than max_sideways_m across the line of sight.
+bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const TangentFit& wider,
+                      const Eigen::Vector2d& centre0, double radius0, double px_m);
 
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
 // The circle found stays within max_sideways_m (or the radius a start supposes, radius0 or a wide

@@ -509,6 +509,36 @@ TEST(Tangent, AWiderStartLeavesARightFitAlone) {
   EXPECT_EQ(fit.centre, unchecked.centre);
 }
 
+// A fit that closed inside the stem (both sides in two thirds of the views) against the wider
+// start's whole stem (both sides in all): the wider one wins within the rms slack, swept over
+// the extra rms, and loses beyond it or when it is two-sided in no more views.
+TEST(Tangent, AWiderRecheckTwoSidedInMoreViewsWinsWithinTheRmsSlack) {
+  const TangentOptions o;
+  const Eigen::Vector2d centre0(5.9, -4.3);
+  const double radius0 = 0.15, px_m = centre0.norm() / 1600.0;
+  TangentFit fit, wider;
+  fit.ok = wider.ok = true;
+  fit.centre = wider.centre = centre0;
+  fit.radius_m = 0.108;
+  wider.radius_m = 0.189;
+  fit.tried_views = wider.tried_views = 26;
+  fit.two_sided_views = 16;
+  wider.two_sided_views = 26;
+  fit.rms_m = 1.1 * px_m;
+  for (double extra_px : {-0.2, 0.0, 0.1, 0.2, 0.3, 0.6}) {
+    wider.rms_m = fit.rms_m + extra_px * px_m;
+    EXPECT_EQ(WiderRecheckWins(o, fit, wider, centre0, radius0, px_m),
+              extra_px <= o.recheck_rms_slack_px)
+        << "extra rms " << extra_px << " px";
+  }
+  wider.two_sided_views = fit.two_sided_views;
+  wider.rms_m = fit.rms_m + 0.1 * px_m;
+  EXPECT_FALSE(WiderRecheckWins(o, fit, wider, centre0, radius0, px_m));
+  wider.centre = centre0 + 0.2 * Eigen::Vector2d(centre0.y(), -centre0.x()).normalized();
+  wider.two_sided_views = 26;
+  EXPECT_FALSE(WiderRecheckWins(o, fit, wider, centre0, radius0, px_m)) << "beside the fit";
+}
+
 TEST(Tangent, DegenerateSystems) {
   Eigen::Vector2d c;
   double r, sd, rms;
