@@ -110,8 +110,24 @@ Eigen::Vector2d Registration::Apply(const Eigen::Vector2d& from_xy) const {
 }
 
 Registration RegisterMaps(const RegisterOptions& o, const std::vector<MapStem>& to,
-                          const std::vector<MapStem>& from) {
+                          const std::vector<MapStem>& from, const RegistrationGuess* guess) {
   o.Check();
+  Eigen::Vector2d from_centroid = Eigen::Vector2d::Zero();
+  for (const MapStem& s : from) from_centroid += s.xy;
+  if (!from.empty()) from_centroid /= static_cast<double>(from.size());
+  // How far a transform puts the `from` map's centroid from where the guess does.
+  const auto guess_distance = [&](const Transform2d& x) {
+    if (guess == nullptr) return 0.0;
+    const Transform2d g{guess->yaw_deg * kDeg, guess->translation_m};
+    return (x * from_centroid - g * from_centroid).norm();
+  };
+  const auto near_guess = [&](const Transform2d& x) {
+    if (guess == nullptr) return true;
+    return std::abs(std::remainder(x.yaw_rad - guess->yaw_deg * kDeg, 2 * M_PI)) <=
+               guess->max_turn_deg * kDeg &&
+           guess_distance(x) <= guess->max_shift_m;
+  };
+  constexpr double kAlikeRmsM = 0.02;  // fits this close in rms are alike
   // Every pair of like stems is a candidate correspondence.
   std::vector<std::pair<int, int>> like;
   for (size_t i = 0; i < to.size(); ++i) {
@@ -121,7 +137,7 @@ Registration RegisterMaps(const RegisterOptions& o, const std::vector<MapStem>& 
   }
   Transform2d best;
   size_t best_count = 0;
-  double best_rms = kInf;
+  double best_rms = kInf, best_off = kInf;
   for (size_t p = 0; p < like.size(); ++p) {
     const auto [i1, j1] = like[p];
     for (size_t q = p + 1; q < like.size(); ++q) {
@@ -130,13 +146,22 @@ Registration RegisterMaps(const RegisterOptions& o, const std::vector<MapStem>& 
       const double da = (to[i1].xy - to[i2].xy).norm(), db = (from[j1].xy - from[j2].xy).norm();
       if (da < o.min_spacing_m || std::abs(da - db) > o.spacing_tolerance_m) continue;
       const Transform2d x = FromTwoPairs(to[i1].xy, to[i2].xy, from[j1].xy, from[j2].xy);
+      if (!near_guess(x)) continue;
       const std::vector<std::pair<int, int>> m = Match(o, to, from, x);
       if (m.size() < best_count) continue;
       const double rms = Rms(to, from, m, x);
-      if (m.size() > best_count || rms < best_rms) {
+      // As many stems: the tighter fit, or with a guess, of fits alike (a regular grid fits as
+      // well one spacing off) the one nearer the guess.
+      const double off = guess_distance(x);
+      const bool better = m.size() > best_count ||
+                          (guess == nullptr ? rms < best_rms
+                                            : rms < best_rms - kAlikeRmsM ||
+                                                  (rms < best_rms + kAlikeRmsM && off < best_off));
+      if (better) {
         best = x;
         best_count = m.size();
         best_rms = rms;
+        best_off = off;
       }
     }
   }
@@ -155,6 +180,29 @@ Registration RegisterMaps(const RegisterOptions& o, const std::vector<MapStem>& 
   r.rms_m = Rms(to, from, m, best);
   r.matched_share =
       static_cast<double>(m.size()) / std::max<size_t>(1, std::min(to.size(), from.size()));
+  r.matches = std::move(m);
+  return r;
+}
+
+Registration FitPairs(const std::vector<Eigen::Vector2d>& to,
+                      const std::vector<Eigen::Vector2d>& from) {
+  if (to.size() != from.size() || to.size() < 2) {
+    throw InputError("a transform between two frames needs at least two points seen in both");
+  }
+  std::vector<MapStem> a, b;
+  std::vector<std::pair<int, int>> m;
+  for (size_t i = 0; i < to.size(); ++i) {
+    a.push_back({to[i], 0.0});
+    b.push_back({from[i], 0.0});
+    m.emplace_back(static_cast<int>(i), static_cast<int>(i));
+  }
+  const Transform2d x = Fit(a, b, m);
+  Registration r;
+  r.ok = true;
+  r.yaw_deg = std::remainder(x.yaw_rad, 2 * M_PI) / kDeg;
+  r.translation_m = x.t;
+  r.rms_m = Rms(a, b, m, x);
+  r.matched_share = 1.0;
   r.matches = std::move(m);
   return r;
 }

@@ -41,7 +41,25 @@ struct Registration {
   Eigen::Vector2d Apply(const Eigen::Vector2d& from_xy) const;
 };
 
+// Where both maps are placed on the earth (a GPS centre and a compass bearing each), the
+// transform they imply, and how far from it a registration may lie: the GPS's and the compass's
+// errors. A regular stand (a plantation's grid) registers almost as well one spacing off; the
+// guess picks the right one.
+struct RegistrationGuess {
+  double yaw_deg = 0.0;
+  Eigen::Vector2d translation_m = Eigen::Vector2d::Zero();
+  double max_shift_m = 6.0;  // at the `from` map's centroid
+  double max_turn_deg = 15.0;
+};
+
+// With a guess, only transforms within its bounds are proposed.
 Registration RegisterMaps(const RegisterOptions& options, const std::vector<MapStem>& to,
-                          const std::vector<MapStem>& from);
+                          const std::vector<MapStem>& from,
+                          const RegistrationGuess* guess = nullptr);
+
+// The rigid 2-D transform (least squares) taking points `from[i]` onto `to[i]` (at least two,
+// not all at one place): e.g. a run's plot frame onto its map coordinates.
+Registration FitPairs(const std::vector<Eigen::Vector2d>& to,
+                      const std::vector<Eigen::Vector2d>& from);
 
 }  // namespace stemmap::merge
