@@ -13,4 +13,4 @@ with open(sys.argv[2], "w") as f:
     f.write("camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n")
     f.write(f"   data: [ {c['fx']!r}, 0., {c['cx']!r}, 0., {c['fy']!r}, {c['cy']!r}, 0., 0., 1. ]\n")
     f.write("distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n")
-    f.write(f"   data: [ {c.get('k1', 0.0)!r}, {c.get('k2', 0.0)!r}, 0., 0., 0. ]\n")
+    f.write(f"   data: [ {c.get('k1', 0.0)!r}, {c.get('k2', 0.0)!r}, 0., 0., {c.get('k3', 0.0)!r} ]\n")

@@ -30,11 +30,12 @@ void CalibrateOptions::Check() const {
 }
 
 std::string CalibrateSummary::BriefReport() const {
+  const std::string k3 = camera.k3 != 0.0 ? fmt::format(" k3 {:+.4f}", camera.k3) : "";
   return fmt::format(
-      "{}x{}, fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} k1 {:+.4f} k2 {:+.4f} "
+      "{}x{}, fx {:.1f} fy {:.1f} cx {:.1f} cy {:.1f} k1 {:+.4f} k2 {:+.4f}{} "
       "(hfov {:.1f}°), {} views, rms {:.3f} px",
       camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy, camera.k1, camera.k2,
-      camera.HfovDeg(), views, rms_px);
+      k3, camera.HfovDeg(), views, rms_px);
 }
 
 CalibrateSummary RunCalibrate(const CalibrateOptions& o, const std::filesystem::path& video,
@@ -93,6 +94,8 @@ CalibrateSummary RunCalibrate(const CalibrateOptions& o, const std::filesystem::
   std::vector<std::vector<cv::Point3f>> object_points(used.size(), board);
   cv::Mat k = cv::Mat::eye(3, 3, CV_64F), d = cv::Mat::zeros(5, 1, CV_64F);
   std::vector<cv::Mat> rvecs, tvecs;
+  // k3 stays 0: a board filmed at arm's length rarely reaches the corners of a main camera's
+  // field, where k3 would be fitted to noise. A file written elsewhere may carry one (d[4]).
   const double rms = cv::calibrateCamera(object_points, used, size, k, d, rvecs, tvecs,
                                          cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST);
   CalibrateSummary s;
@@ -106,6 +109,7 @@ CalibrateSummary RunCalibrate(const CalibrateOptions& o, const std::filesystem::
   s.camera.cy = k.at<double>(1, 2);
   s.camera.k1 = d.at<double>(0);
   s.camera.k2 = d.at<double>(1);
+  s.camera.k3 = d.at<double>(4);
   s.camera.Check();
 
   cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
@@ -252,6 +256,8 @@ PinholeCamera ReadCalibration(const std::filesystem::path& path, int width, int 
   c.cy = k[5];
   if (!d.empty()) c.k1 = d[0];
   if (d.size() > 1) c.k2 = d[1];
+  // OpenCV's order is k1 k2 p1 p2 k3; the tangential p1, p2 are not modelled.
+  if (d.size() > 4) c.k3 = d[4];
   c.Check();
   if (std::abs(static_cast<double>(cw) / ch - static_cast<double>(width) / height) > 0.01) {
     throw InputError(fmt::format("calibration {} is for {}x{}, the video is {}x{} (another shape)",

@@ -146,5 +146,30 @@ TEST(Calibrate, DamagedCalibrationFilesAreInputErrors) {
   fs::remove_all(dir);
 }
 
+// OpenCV's five coefficients are k1 k2 p1 p2 k3: the fifth is read as k3, and a lens whose
+// distortion folds over inside the image is refused.
+TEST(Calibrate, ReadsK3AndRefusesAFoldingLens) {
+  const fs::path dir = fs::temp_directory_path() / ("stemmap_calib2_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const std::string head = "%YAML:1.0\n---\nimage_width: 1920\nimage_height: 1080\n";
+  const std::string matrix =
+      "camera_matrix: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n"
+      "   data: [ 1055., 0., 959.5, 0., 1055., 539.5, 0., 0., 1. ]\n";
+  const auto distortion = [](const std::string& data) {
+    return "distortion_coefficients: !!opencv-matrix\n   rows: 1\n   cols: 5\n   dt: d\n"
+           "   data: [ " +
+           data + " ]\n";
+  };
+  WriteFileAtomic(dir / "wide.yaml", head + matrix + distortion("-0.25, 0.07, 0., 0., -0.008"));
+  const PinholeCamera wide = ReadCalibration(dir / "wide.yaml", 960, 540);
+  EXPECT_EQ(wide.k1, -0.25);
+  EXPECT_EQ(wide.k2, 0.07);
+  EXPECT_EQ(wide.k3, -0.008);
+  EXPECT_NEAR(wide.fx, 527.5, 1e-9);
+  WriteFileAtomic(dir / "fold.yaml", head + matrix + distortion("-0.25, 0., 0., 0., 0."));
+  EXPECT_THROW(ReadCalibration(dir / "fold.yaml", 1920, 1080), InputError);
+  fs::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace stemmap::calib

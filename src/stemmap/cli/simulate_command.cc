@@ -24,6 +24,7 @@ void ApplyLogLevel(const CLI::App& app) {
 void AddSimulateCommand(CLI::App& app) {
   auto opt = std::make_shared<sim::SimulateOptions>();
   auto kind = std::make_shared<std::string>("managed");
+  auto phone = std::make_shared<std::string>("ideal");
   CLI::App* sub = app.add_subcommand(
       "simulate", "Render a plot capture (video.mp4, truth.json, trajectory_truth.tum)");
   sub->add_option("--seed", opt->seed, "Everything follows from it")->capture_default_str();
@@ -50,8 +51,37 @@ void AddSimulateCommand(CLI::App& app) {
       ->delimiter(',')
       ->expected(2);
   sub->add_option("--arm-radius", opt->arm_radius_m, "Arm length (m)")->capture_default_str();
-  sub->add_option("--hfov", opt->hfov_deg, "Horizontal field of view (deg, default: 60-75)");
-  sub->add_option("--k1", opt->k1, "Radial distortion of the simulated lens")
+  sub->add_option(
+      "--hfov", opt->hfov_deg,
+      "Horizontal field of view through the lens (deg, default: 60-75; 100 for --phone wide)");
+  sub->add_option("--phone", *phone,
+                  "Camera effects of a phone: ideal (none), main (25 ms rolling shutter, residual "
+                  "distortion, 0.7 % focus breathing, wind 0.5) or wide (100° with strong barrel "
+                  "distortion, 30 ms readout, 0.2 % breathing, wind 0.5); the flags below "
+                  "override its values")
+      ->check(CLI::IsMember({"ideal", "main", "wide"}))
+      ->capture_default_str();
+  sub->add_option("--k1", opt->k1, "Radial distortion k1 of the simulated lens (OpenCV's)")
+      ->capture_default_str();
+  sub->add_option("--k2", opt->k2, "Radial distortion k2 of the simulated lens")
+      ->capture_default_str();
+  sub->add_option("--k3", opt->k3, "Radial distortion k3 of the simulated lens")
+      ->capture_default_str();
+  sub->add_option("--readout-ms", opt->phone.readout_ms,
+                  "Rolling shutter: time to read the rows top to bottom (ms; 0: global shutter; "
+                  "a frame's pose is its middle row's)")
+      ->capture_default_str();
+  sub->add_option("--breathing-pct", opt->phone.breathing_pct,
+                  "Focus breathing: focal length + this % focused at 1 m, - this % at 10 m and "
+                  "beyond, following the image centre's depth with a 0.3 s lag "
+                  "(frames_truth.csv)")
+      ->capture_default_str();
+  sub->add_flag("--stabilisation", opt->phone.stabilisation,
+                "Electronic stabilisation: a 1.1x crop whose principal point moves each frame to "
+                "cancel the rotation's jitter (frames_truth.csv)");
+  sub->add_option("--wind", opt->phone.wind,
+                  "Wind strength 0-1: shrubs, saplings and crowns sway (5 cm, 4-10 cm and 30 cm "
+                  "at 1); trees stand still")
       ->capture_default_str();
   sub->add_option("--bitrate", opt->bitrate_mbps, "H.264 bitrate (Mbit/s, default: phone-like)");
   sub->add_option("--layout", opt->layout_csv, "Stem map CSV with x, y, dbh (cm) columns")
@@ -62,9 +92,26 @@ void AddSimulateCommand(CLI::App& app) {
       ->capture_default_str();
   sub->add_flag("--truth-only", opt->truth_only,
                 "Write truth.json and trajectory_truth.tum without rendering the video");
-  sub->callback([sub, opt, kind] {
+  sub->callback([sub, opt, kind, phone] {
     ApplyLogLevel(*sub);
     opt->kind = sim::ParseStandKind(*kind);
+    // The preset's values, then every lens or phone flag given on the command line over them.
+    const sim::SimulateOptions given = *opt;
+    sim::ApplyPhonePreset(sim::ParsePhonePreset(*phone), opt.get());
+    const auto keep = [&](const char* flag, auto member) {
+      if (sub->count(flag) > 0) (*opt).*member = given.*member;
+    };
+    const auto keep_phone = [&](const char* flag, auto member) {
+      if (sub->count(flag) > 0) opt->phone.*member = given.phone.*member;
+    };
+    keep("--hfov", &sim::SimulateOptions::hfov_deg);
+    keep("--k1", &sim::SimulateOptions::k1);
+    keep("--k2", &sim::SimulateOptions::k2);
+    keep("--k3", &sim::SimulateOptions::k3);
+    keep_phone("--readout-ms", &sim::PhoneOptions::readout_ms);
+    keep_phone("--breathing-pct", &sim::PhoneOptions::breathing_pct);
+    keep_phone("--stabilisation", &sim::PhoneOptions::stabilisation);
+    keep_phone("--wind", &sim::PhoneOptions::wind);
     const sim::SimulateSummary s = sim::RunSimulate(*opt);
     fmt::print("simulate: {}\nwrote {}\n", s.BriefReport(), opt->out_dir.string());
   });

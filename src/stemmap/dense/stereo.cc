@@ -42,7 +42,7 @@ std::vector<CloudPoint> StereoPairPoints(const StereoOptions& o, const cv::Mat& 
   const Rigid3d right_from_left = world_from_right.Inverse() * world_from_left;
 
   cv::Matx33d k(cam.fx, 0, cam.cx, 0, cam.fy, cam.cy, 0, 0, 1);
-  cv::Mat d = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, 0, 0, 0);
+  cv::Mat d = (cv::Mat_<double>(1, 5) << cam.k1, cam.k2, 0, 0, cam.k3);
   cv::Mat r, t;
   cv::eigen2cv(Eigen::Matrix3d(right_from_left.rotation.toRotationMatrix()), r);
   cv::eigen2cv(Eigen::Vector3d(right_from_left.translation), t);

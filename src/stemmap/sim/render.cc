@@ -45,19 +45,26 @@ Renderer::Renderer(const Scene& scene, const PinholeCamera& camera, const Render
   camera.Check();
   options.Check();
   wall_radius_m_ = scene.scene_radius_m + 6.0;
-  cam_rays_.resize(static_cast<size_t>(camera.width) * camera.height);
+  cam_rays_ = CamRays(camera);
+  inv_sun_z_ = 1.0 / scene.light.sun_dir_world.z();
+  inv_shadow_texel_ = 1.0 / options.shadow_texel_m;
+  BuildShadowMap();
+  BuildFieldTables(-shadow_origin_x_);  // the shadow map's square, which covers the scene
+}
+
+std::vector<Eigen::Vector3f> Renderer::CamRays(const PinholeCamera& camera) {
+  std::vector<Eigen::Vector3f> rays(static_cast<size_t>(camera.width) * camera.height);
+  // Made again for every frame whose intrinsics change (breathing, a stabilising crop).
+#pragma omp parallel for schedule(static)
   for (int v = 0; v < camera.height; ++v) {
     for (int u = 0; u < camera.width; ++u) {
-      cam_rays_[static_cast<size_t>(v) * camera.width + u] =
+      rays[static_cast<size_t>(v) * camera.width + u] =
           camera.CamRayFromImage({static_cast<double>(u), static_cast<double>(v)})
               .normalized()
               .cast<float>();
     }
   }
-  inv_sun_z_ = 1.0 / scene.light.sun_dir_world.z();
-  inv_shadow_texel_ = 1.0 / options.shadow_texel_m;
-  BuildShadowMap();
-  BuildFieldTables(-shadow_origin_x_);  // the shadow map's square, which covers the scene
+  return rays;
 }
 
 void Renderer::BuildShadowMap() {
@@ -310,12 +317,17 @@ double Renderer::IntersectGround(const Eigen::Vector3d& o, const Eigen::Vector3d
   return kInf;
 }
 
-Renderer::ShrubView Renderer::ViewShrub(int k, const Eigen::Vector3d& o) const {
+Renderer::ShrubView Renderer::ViewShrub(int k, const Eigen::Vector3d& o,
+                                        const Eigen::Vector3d& offset_m) const {
   const Shrub& sh = scene_.shrubs[k];
   ShrubView view;
   view.inv_radii = sh.radii_m.cwiseInverse();
-  view.o_scaled = (o - sh.centre).cwiseProduct(view.inv_radii);
+  view.o_scaled = (o - sh.centre - offset_m).cwiseProduct(view.inv_radii);
   view.c = view.o_scaled.squaredNorm() - 1.0;
+  // Each shrub reads its own region of the shared noise, and carries its leaves when it sways.
+  view.leaf_offset =
+      Eigen::Vector3d(HashToUnit(sh.seed) * 300.0, HashToUnit(Mix64(sh.seed)) * 300.0, 0.0) -
+      offset_m;
   return view;
 }
 
@@ -334,8 +346,7 @@ bool Renderer::IntersectShrub(int k, const ShrubView& view, const Eigen::Vector3
   const double t1 = std::min((-b + sq) / a, t_max);
   if (t0 >= t1) return false;
   const ValueNoise& leaf = leaf_noise_;
-  // Each shrub reads its own region of the shared noise.
-  const Eigen::Vector3d off(HashToUnit(sh.seed) * 300.0, HashToUnit(Mix64(sh.seed)) * 300.0, 0.0);
+  const Eigen::Vector3d& off = view.leaf_offset;
   const double th = 1.05 - 0.6 * sh.density;
   const double step = 0.045;
   // Lobed outline: the leaf threshold varies across the shrub at the scale of branches.

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
+#include <stdexcept>
 
 #include "stemmap/core/fast_math.h"
 #include "stemmap/core/units.h"
@@ -15,34 +17,11 @@ namespace {
 constexpr int kObjSky = 0, kObjGround = 1, kObjWall = 2, kObjCanopy = 3, kObjTree = 100,
               kObjShrub = 100000;
 
-double WrapPi(double a) {
-  a = std::fmod(a + std::numbers::pi, 2.0 * std::numbers::pi);
-  if (a < 0) a += 2.0 * std::numbers::pi;
-  return a - std::numbers::pi;
-}
-
-// Closest point of segment ab to the origin, in the plane.
-double SegmentDistance(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  const Eigen::Vector2d ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double t = len2 > 0 ? std::clamp(-a.dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (a + t * ab).norm();
-}
-
 }  // namespace
 
-std::vector<Renderer::Candidate> Renderer::ColumnCandidates(const Eigen::Vector3d&,
-                                                            const std::vector<Candidate>& objects,
-                                                            double col_az, double col_half) const {
-  std::vector<Candidate> out;
-  for (const Candidate& c : objects) {
-    if (std::abs(WrapPi(c.centre_az - col_az)) <= c.half_width + col_half) out.push_back(c);
-  }
-  return out;
-}
-
 Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
-                                 const std::vector<Candidate>& candidates) const {
+                                 const std::vector<Candidate>& candidates,
+                                 const TraceContext& context) const {
   Sample s;
   const double dxy = std::sqrt(d.x() * d.x() + d.y() * d.y());
   // Where the ray leaves the modelled scene through the distant-forest wall.
@@ -67,25 +46,39 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
   Eigen::Vector3f albedo(0, 0, 0);
   // A stem is shaded once the nearest is known: a nearer one found later hides it.
   Stem::SurfacePoint stem_point;
+  const Eigen::Matrix3d* stem_rest_from_world = nullptr;
   for (const Candidate& c : candidates) {
     const double t_limit = std::min(t_best, t_ground_max);
     if (c.min_dist_xy_m > t_limit * dxy + 1e-6) break;
     if (c.index >= 0) {
       const Stem& stem = scene_.trees[c.index].stem;
       const double tol = 0.25 / camera_.fx;
-      const auto point = c.origin ? stem.FirstSurfacePoint(*c.origin, d, 1e-4, t_limit, tol)
-                                  : stem.FirstSurfacePoint(o, d, 1e-4, t_limit, tol);
+      std::optional<Stem::SurfacePoint> point;
+      if (c.view < 0 || !context.trees) {
+        point = stem.FirstSurfacePoint(o, d, 1e-4, t_limit, tol);
+      } else if (c.rest_from_world) {
+        // A tilted stem meets the ray turned back into its rest pose: the same t, as the turn
+        // about the base is rigid (the view's origin was turned likewise).
+        point = stem.FirstSurfacePoint(context.trees[c.view], *c.rest_from_world * d, 1e-4, t_limit,
+                                       tol);
+      } else {
+        point = stem.FirstSurfacePoint(context.trees[c.view], d, 1e-4, t_limit, tol);
+      }
       if (point) {
         t_best = point->t;
         object = kObjTree + c.index;
         stem_point = *point;
+        stem_rest_from_world = c.rest_from_world;
       }
     } else {
       double t;
       Eigen::Vector3d n;
       Eigen::Vector3f a;
       const int k = -c.index - 1;
-      if (IntersectShrub(k, c.shrub ? *c.shrub : ViewShrub(k, o), o, d, t_limit, &t, &n, &a)) {
+      const bool hit = c.view >= 0 && context.shrubs
+                           ? IntersectShrub(k, context.shrubs[c.view], o, d, t_limit, &t, &n, &a)
+                           : IntersectShrub(k, ViewShrub(k, o), o, d, t_limit, &t, &n, &a);
+      if (hit) {
         t_best = t;
         object = kObjShrub + (-c.index - 1);
         normal = n;
@@ -100,7 +93,9 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
     object = kObjGround;
   } else if (object >= kObjTree && object < kObjShrub) {
     const StemHit hit = scene_.trees[object - kObjTree].stem.Shade(stem_point);
-    normal = hit.normal_world;
+    normal = stem_rest_from_world
+                 ? Eigen::Vector3d(stem_rest_from_world->transpose() * hit.normal_world)
+                 : hit.normal_world;
     albedo = hit.albedo;
   }
 
@@ -134,7 +129,7 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
       double transmit = 1.0;
       Eigen::Vector3f acc(0, 0, 0);
       for (double t = tc0; t < tc1 && transmit > 0.02; t += step) {
-        const Eigen::Vector3d p = o + t * d;
+        const Eigen::Vector3d p = o + t * d - context.crown_offset_m;  // the crowns at rest
         const double v = canopy_noise_.Fbm3(p.x() / 3.5, p.y() / 3.5, p.z() / 2.5, 2);
         const double alpha = std::clamp((v - th) * 8.0, 0.0, 0.97);
         if (alpha > 0) {
@@ -163,93 +158,73 @@ Renderer::Sample Renderer::Trace(const Eigen::Vector3d& o, const Eigen::Vector3d
   return s;
 }
 
-RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
+RenderBuffers Renderer::Render(const FrameSetup& frame) const {
   const int w = camera_.width, h = camera_.height;
-  const Eigen::Matrix3d rot = world_from_cam.rotation.toRotationMatrix();
-  const Eigen::Vector3d o = world_from_cam.translation;
-  const double hfov = std::atan(0.5 * w / camera_.fx), vfov = std::atan(0.5 * h / camera_.fy);
+  const bool own_camera = frame.camera.has_value();
+  const PinholeCamera& cam = own_camera ? *frame.camera : camera_;
+  if (cam.width != w || cam.height != h) {
+    throw std::invalid_argument("render: the frame's camera differs in size from the renderer's");
+  }
+  const bool rolling = !frame.world_from_row_cam.empty();
+  if (rolling && static_cast<int>(frame.world_from_row_cam.size()) != h) {
+    throw std::invalid_argument("render: a rolling shutter needs one pose per image row");
+  }
+  std::vector<Eigen::Vector3f> own_rays;
+  if (own_camera) own_rays = CamRays(cam);
+  const std::vector<Eigen::Vector3f>& cam_rays = own_camera ? own_rays : cam_rays_;
+  const Eigen::Matrix3d rot = frame.world_from_cam.rotation.toRotationMatrix();
+  const Eigen::Vector3d o = frame.world_from_cam.translation;
 
-  // Objects that may be seen this frame, with their azimuth extent from the camera.
-  std::vector<Candidate> objects;
-  const Eigen::Vector2d c_xy = o.head<2>();
-  const double view_az =
-      std::atan2((rot * Eigen::Vector3d::UnitZ()).y(), (rot * Eigen::Vector3d::UnitZ()).x());
-  for (int i = 0; i < static_cast<int>(scene_.trees.size()); ++i) {
-    const Stem& stem = scene_.trees[i].stem;
-    const Eigen::Vector2d a = stem.AxisPoint(-0.6).head<2>() - c_xy;
-    const double dist = a.norm();
-    const double z_top = o.z() + dist * std::tan(vfov + 0.05) + 2.0;
-    const double s_top = std::min(stem.params().height_m,
-                                  (z_top - stem.params().base_world.z()) / stem.axis_world().z());
-    const Eigen::Vector2d b = stem.AxisPoint(std::max(s_top, 0.0)).head<2>() - c_xy;
-    const double rb = stem.BoundRadius(-0.6);
-    const double dmin = SegmentDistance(a, b);
-    if (dmin <= rb) {
-      objects.push_back({i, 0.0, view_az, std::numbers::pi});
-      continue;
+  // A rolling shutter: each row from its own pose, all near the frame's. The objects are found
+  // from the frame's pose, widened by how far the rows' origins and rotations stray from it.
+  std::vector<Eigen::Matrix3d> row_rot;
+  std::vector<Eigen::Vector3d> row_o;
+  double reach_m = 0.0, turn_rad = 0.0;
+  if (rolling) {
+    row_rot.resize(h);
+    row_o.resize(h);
+    for (int v = 0; v < h; ++v) {
+      const Rigid3d& pose = frame.world_from_row_cam[v];
+      row_rot[v] = pose.rotation.toRotationMatrix();
+      row_o[v] = pose.translation;
+      reach_m = std::max(reach_m, (pose.translation - o).norm());
+      turn_rad = std::max(turn_rad, pose.rotation.angularDistance(frame.world_from_cam.rotation));
     }
-    const double az_a = std::atan2(a.y(), a.x()), az_b = std::atan2(b.y(), b.x());
-    const double centre = az_a + 0.5 * WrapPi(az_b - az_a);
-    const double half = 0.5 * std::abs(WrapPi(az_b - az_a)) + std::asin(std::min(1.0, rb / dmin));
-    if (std::abs(WrapPi(centre - view_az)) > half + hfov + 0.3) continue;
-    objects.push_back({i, dmin - rb, centre, half});
   }
-  for (int k = 0; k < static_cast<int>(scene_.shrubs.size()); ++k) {
-    const Shrub& sh = scene_.shrubs[k];
-    const Eigen::Vector2d a = sh.centre.head<2>() - c_xy;
-    const double r = sh.radii_m.maxCoeff();
-    const double dist = a.norm();
-    if (dist <= r) {
-      objects.push_back({-(k + 1), 0.0, view_az, std::numbers::pi});
-      continue;
-    }
-    const double centre = std::atan2(a.y(), a.x());
-    const double half = std::asin(std::min(1.0, r / dist));
-    if (std::abs(WrapPi(centre - view_az)) > half + hfov + 0.3) continue;
-    objects.push_back({-(k + 1), dist - r, centre, half});
+  const FrameObjects objects = FindObjects(o, rot, cam, reach_m, turn_rad, frame.sway);
+  // The objects' views of the rays' origin: one table for the frame, or one per row.
+  const size_t n_tree_views = objects.tree_of_view.size();
+  const size_t n_shrub_views = objects.shrub_of_view.size();
+  const int n_origins = rolling ? h : 1;
+  std::vector<Stem::RayOrigin> tree_views(n_tree_views * n_origins);
+  std::vector<ShrubView> shrub_views(n_shrub_views * n_origins);
+  std::vector<TraceContext> contexts(n_origins);
+#pragma omp parallel for schedule(static) if (rolling)
+  for (int r = 0; r < n_origins; ++r) {
+    contexts[r] = ViewFrom(objects, rolling ? row_o[r] : o, tree_views.data() + r * n_tree_views,
+                           shrub_views.data() + r * n_shrub_views);
   }
-  std::sort(objects.begin(), objects.end(), [](const Candidate& x, const Candidate& y) {
-    return x.min_dist_xy_m < y.min_dist_xy_m;
-  });
-  // Every ray of the frame starts at o: each tree's view of it is computed once.
-  std::vector<Stem::RayOrigin> origins;
-  origins.reserve(objects.size());
-  std::vector<const Stem::RayOrigin*> tree_origin(scene_.trees.size(), nullptr);
-  std::vector<ShrubView> shrub_views;
-  shrub_views.reserve(objects.size());
-  for (Candidate& c : objects) {
-    if (c.index < 0) {
-      shrub_views.push_back(ViewShrub(-c.index - 1, o));
-      c.shrub = &shrub_views.back();
-      continue;
-    }
-    origins.push_back(scene_.trees[c.index].stem.PrepareOrigin(o));
-    c.origin = tree_origin[c.index] = &origins.back();
-  }
-  // Whether a ray of this frame meets tree i.
-  auto hits_tree = [&](int i, const Eigen::Vector3d& d) {
+  const auto row_rotation = [&](int v) -> const Eigen::Matrix3d& {
+    return rolling ? row_rot[v] : rot;
+  };
+  const auto row_origin = [&](int v) -> const Eigen::Vector3d& { return rolling ? row_o[v] : o; };
+  const auto row_context = [&](int v) -> const TraceContext& { return contexts[rolling ? v : 0]; };
+  // Whether a ray of row v meets tree i.
+  auto hits_tree = [&](int i, const Eigen::Vector3d& d, int v) {
     const Stem& stem = scene_.trees[i].stem;
     const double tol = 0.25 / camera_.fx;
-    return (tree_origin[i] ? stem.FirstSurfacePoint(*tree_origin[i], d, 1e-4, kInf, tol)
-                           : stem.FirstSurfacePoint(o, d, 1e-4, kInf, tol))
+    const int view = objects.view_of_tree[i];
+    if (view < 0) return stem.FirstSurfacePoint(row_origin(v), d, 1e-4, kInf, tol).has_value();
+    const Stem::RayOrigin& origin = row_context(v).trees[view];
+    const Eigen::Matrix3d& rest = objects.rest_from_world[view];
+    return (rest.isIdentity(0.0)
+                ? stem.FirstSurfacePoint(origin, d, 1e-4, kInf, tol)
+                : stem.FirstSurfacePoint(origin, Eigen::Vector3d(rest * d), 1e-4, kInf, tol))
         .has_value();
   };
 
-  // Candidate lists per column; a column's azimuth range spans its top and bottom rays.
-  std::vector<std::vector<Candidate>> columns(w);
-  for (int u = 0; u < w; ++u) {
-    double az[3];
-    int k = 0;
-    for (int v : {0, h / 2, h - 1}) {
-      const Eigen::Vector3d d = rot * cam_rays_[static_cast<size_t>(v) * w + u].cast<double>();
-      az[k++] = std::atan2(d.y(), d.x());
-    }
-    const double lo = std::min({0.0, WrapPi(az[0] - az[1]), WrapPi(az[2] - az[1])});
-    const double hi = std::max({0.0, WrapPi(az[0] - az[1]), WrapPi(az[2] - az[1])});
-    const double centre = az[1] + 0.5 * (lo + hi);
-    const double half = 0.5 * (hi - lo) + 1.0 / camera_.fx;  // ± half a pixel and a margin
-    columns[u] = ColumnCandidates(o, objects, centre, half);
-  }
+  const std::vector<std::vector<Candidate>> columns =
+      ColumnLists(objects, o, rot, cam_rays, cam, turn_rad);
 
   RenderBuffers out;
   out.radiance = cv::Mat(h, w, CV_32FC3);
@@ -260,9 +235,12 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
     auto* rad = out.radiance.ptr<cv::Vec3f>(v);
     auto* dep = out.depth_m.ptr<float>(v);
     auto* id = ids.ptr<int>(v);
+    const Eigen::Matrix3d& rot_v = row_rotation(v);
+    const Eigen::Vector3d& o_v = row_origin(v);
+    const TraceContext& context = row_context(v);
     for (int u = 0; u < w; ++u) {
-      const Eigen::Vector3f& rc = cam_rays_[static_cast<size_t>(v) * w + u];
-      const Sample s = Trace(o, rot * rc.cast<double>(), columns[u]);
+      const Eigen::Vector3f& rc = cam_rays[static_cast<size_t>(v) * w + u];
+      const Sample s = Trace(o_v, rot_v * rc.cast<double>(), columns[u], context);
       rad[u] = cv::Vec3f(s.rgb.x(), s.rgb.y(), s.rgb.z());
       dep[u] = s.t * rc.z();
       id[u] = s.object;
@@ -289,6 +267,7 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
     const int* id = ids.ptr<int>(v);
     const float* dep = out.depth_m.ptr<float>(v);
     uchar* mark = marks.ptr<uchar>(v);
+    const Eigen::Matrix3d& rot_v = row_rotation(v);
     for (int u = 0; u + 1 < w; ++u) {
       // Only stem sides need sub-pixel accuracy: a diameter is read across a stem. Leaves,
       // ground and sky edges, and foliage in front of a stem, do not.
@@ -298,9 +277,9 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
         continue;
       }
       const Eigen::Vector3d rc =
-          camera_.CamRayFromImage({u + 0.5, static_cast<double>(v)}).normalized();
+          cam.CamRayFromImage({u + 0.5, static_cast<double>(v)}).normalized();
       if (a == b) {
-        const Sample mid = Trace(o, rot * rc, columns[u]);
+        const Sample mid = Trace(row_origin(v), rot_v * rc, columns[u], row_context(v));
         const float mid_depth = mid.t * static_cast<float>(rc.z());
         const bool like_a =
             mid.object == a && std::abs(mid_depth - dep[u]) <= 0.04f * std::min(mid_depth, dep[u]);
@@ -309,7 +288,7 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
       }
       const bool a_front = is_front(id, dep, u, u + 1);
       const int front = a_front ? a : b;
-      const bool hit = hits_tree(front - kObjTree, rot * rc);
+      const bool hit = hits_tree(front - kObjTree, rot_v * rc, v);
       if (hit == a_front) {
         mark[u + 1] |= kLeft;
       } else {
@@ -329,6 +308,7 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
     const float* dep = out.depth_m.ptr<float>(v);
     auto* rad = out.radiance.ptr<cv::Vec3f>(v);
     const std::vector<cv::Vec3f> centre(rad, rad + w);  // colours before this pass
+    const Eigen::Matrix3d& rot_v = row_rotation(v);
     for (int u = 0; u < w; ++u) {
       if (!mark[u]) continue;
       const bool full = (mark[u] & kFull) || mark[u] == (kLeft | kRight);
@@ -338,12 +318,12 @@ RenderBuffers Renderer::Render(const Rigid3d& world_from_cam) const {
       cv::Vec3f sum = centre[u];
       for (int k = 0; k < options_.edge_samples; ++k) {
         const Eigen::Vector3d rc =
-            camera_.CamRayFromImage({u + kOffsets[k][0], v + kOffsets[k][1]}).normalized();
+            cam.CamRayFromImage({u + kOffsets[k][0], v + kOffsets[k][1]}).normalized();
         if (full) {
-          const Sample s = Trace(o, rot * rc, columns[u]);
+          const Sample s = Trace(row_origin(v), rot_v * rc, columns[u], row_context(v));
           sum += cv::Vec3f(s.rgb.x(), s.rgb.y(), s.rgb.z());
         } else {
-          const bool hit = hits_tree(tree, rot * rc);
+          const bool hit = hits_tree(tree, rot_v * rc, v);
           sum += centre[hit == u_front ? u : other];
         }
       }

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "stemmap/core/noise.h"
 #include "stemmap/core/pose.h"
 
 namespace stemmap::sim {
@@ -32,8 +33,32 @@ struct RigFrame {
   double yaw_rate_rad_s = 0.0;  // signed rotation rate about the axis (for motion blur)
 };
 
-// Camera poses for every frame. The plot frame has its origin on the rotation axis at ground
-// level, z up, and x along the first frame's horizontal viewing direction.
+// The rig's motion as a function of time, for instants between frames too (the rows of a rolling
+// shutter). The plot frame has its origin on the rotation axis at ground level, z up, and x along
+// the first frame's horizontal viewing direction.
+class RigMotion {
+ public:
+  explicit RigMotion(const RigParams& params);
+
+  // Camera poses for every frame, at t = i / fps.
+  std::vector<RigFrame> Frames() const;
+  // The camera at any time; before the first frame and after the last the arm carries on at the
+  // speed it had there. At a frame's time, the same pose as Frames() gives it (to rounding).
+  Rigid3d WorldFromCam(double t_s) const;
+
+ private:
+  // The pose before the turn that puts the first view along the plot's x.
+  Rigid3d RawPose(double t_s, double theta_rad) const;
+
+  RigParams p_;
+  int frames_ = 1;
+  static constexpr int kSubsteps = 8;  // arm angle samples per frame
+  std::vector<double> theta_rad_;      // arm angle at t = k / (kSubsteps fps)
+  Eigen::Quaterniond tilt_, mount_, align_;
+  ValueNoise wobble_noise_;
+};
+
+// Camera poses for every frame: RigMotion(params).Frames().
 std::vector<RigFrame> SimulateRig(const RigParams& params);
 
 }  // namespace stemmap::sim

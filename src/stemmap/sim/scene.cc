@@ -220,6 +220,7 @@ Scene GenerateScene(const SceneOptions& o) {
                                 {rr, rr * stem_rng.Uniform(0.7, 1.2), rr * 0.7},
                                 stem_rng.Uniform(0.25, 0.45),
                                 stem_rng.NextU64()});
+        scene.shrubs.back().tree = static_cast<int>(scene.trees.size());
       }
     }
     scene.trees.push_back(std::move(tree));

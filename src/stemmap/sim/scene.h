@@ -40,6 +40,7 @@ struct Shrub {
   Eigen::Vector3d radii_m;  // ellipsoid semi-axes
   double density = 0.5;     // share of the volume that is leaves
   uint64_t seed = 0;
+  int tree = -1;  // the sapling it is a leaf clump of (it sways with it), or -1 for a shrub
 };
 
 struct SceneTree {

@@ -25,6 +25,7 @@
 #include "stemmap/sim/rig.h"
 #include "stemmap/sim/sensor.h"
 #include "stemmap/sim/truth.h"
+#include "stemmap/sim/wind.h"
 #include "stemmap/video/video_writer.h"
 
 namespace stemmap::sim {
@@ -97,7 +98,16 @@ void SimulateOptions::Check() const {
   if (hfov_deg != 0 && !(hfov_deg >= 20 && hfov_deg <= 120)) {
     throw InputError(fmt::format("hfov {}° out of [20, 120]", hfov_deg));
   }
-  if (std::abs(k1) > 0.3) throw InputError("|k1| must be at most 0.3");
+  if (!(std::abs(k1) <= 0.3)) throw InputError("|k1| must be at most 0.3");
+  if (!(std::abs(k2) <= 0.3)) throw InputError("|k2| must be at most 0.3");
+  if (!(std::abs(k3) <= 0.1)) throw InputError("|k3| must be at most 0.1");
+  phone.Check();
+  if (phone.readout_ms > 1000.0 / fps) {
+    throw InputError(
+        fmt::format("--readout-ms {} is longer than a frame at {} fps", phone.readout_ms, fps));
+  }
+  // The lens must show its field without folding over (the widest drawn one when none is given).
+  PinholeCamera::FromLensHfov(width, height, hfov_deg > 0 ? hfov_deg : 75.0, k1, k2, k3).Check();
   if (stills < 0 || stills > 20) throw InputError("stills must be in [0, 20]");
   if (!std::isfinite(start_deg)) throw InputError("--start-deg must be a number of degrees");
   // The scene reaches 40 m around the stand's centre; a plot of 11 m must lie within it.
@@ -124,6 +134,9 @@ void to_json(nlohmann::json& j, const SimulateOptions& o) {
        {"arm_radius_m", o.arm_radius_m},
        {"hfov_deg", o.hfov_deg},
        {"k1", o.k1},
+       {"k2", o.k2},
+       {"k3", o.k3},
+       {"phone", o.phone},
        {"bitrate_mbps", o.bitrate_mbps},
        {"layout_csv", o.layout_csv.string()},
        {"layout_plot", o.layout_plot},
@@ -144,11 +157,17 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
   if (!o.layout_csv.empty()) scene_options.layout = ReadLayoutCsv(o.layout_csv, o.layout_plot);
   const Scene scene = GenerateScene(scene_options);
 
-  PinholeCamera camera = PinholeCamera::FromHfov(
-      o.width, o.height, o.hfov_deg > 0 ? o.hfov_deg : rng.Uniform(60.0, 75.0));
+  const PhoneOptions& phone = o.phone;
+  PinholeCamera camera = PinholeCamera::FromLensHfov(
+      o.width, o.height, o.hfov_deg > 0 ? o.hfov_deg : rng.Uniform(60.0, 75.0), o.k1, o.k2, o.k3);
   camera.cx += rng.Uniform(-0.01, 0.01) * o.width;
   camera.cy += rng.Uniform(-0.01, 0.01) * o.height;
-  camera.k1 = o.k1;
+  if (phone.stabilisation) {
+    // The video is a crop of the sensor's image, scaled up to the frame size.
+    camera.fx *= phone.stabilisation_crop;
+    camera.fy *= phone.stabilisation_crop;
+  }
+  camera.Check();
 
   RigParams rig;
   rig.arm_radius_m = o.arm_radius_m;
@@ -163,7 +182,8 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
   rig.mount_yaw_deg = std::clamp(rng.Normal(0, 1.0), -2.0, 2.0);
   rig.direction = rng.Bernoulli(0.5) ? 1 : -1;
   rig.seed = rng.NextU64();
-  const std::vector<RigFrame> frames = SimulateRig(rig);
+  const RigMotion motion(rig);
+  const std::vector<RigFrame> frames = motion.Frames();
   // The capture's plot frame in the stand: the rig turns about the tripod, on the stand's ground.
   Rigid3d stand_from_plot;
   stand_from_plot.rotation = Eigen::AngleAxisd(o.start_deg * kDeg, Eigen::Vector3d::UnitZ());
@@ -175,9 +195,68 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
   sensor_params.seed = rng.NextU64();
   SensorModel sensor(sensor_params, camera);
 
+  // The renderer is built before the truth where the autofocus, which the truth records, meters
+  // the scene.
+  std::optional<Renderer> renderer;
+  if (!o.truth_only || phone.breathing_pct > 0) renderer.emplace(scene, camera, RenderOptions{});
+  std::optional<Wind> wind;
+  if (phone.wind > 0) wind.emplace(scene, phone.wind, o.seed);
+  // Each frame as the phone takes it; with every effect off, a global shutter at `camera`.
+  std::vector<PinholeCamera> frame_cameras;  // empty: every frame at `camera`
+  const auto frame_setup = [&](size_t i, bool rows) {
+    FrameSetup f;
+    f.world_from_cam = stand_from_plot * frames[i].world_from_cam;
+    if (i < frame_cameras.size()) f.camera = frame_cameras[i];
+    if (wind) f.sway = wind->At(frames[i].t_s);
+    if (rows && phone.readout_ms > 0) {
+      f.world_from_row_cam.resize(o.height);
+      for (int v = 0; v < o.height; ++v) {
+        const double t_s = frames[i].t_s + 1e-3 * phone.readout_ms *
+                                               (static_cast<double>(v) / (o.height - 1) - 0.5);
+        f.world_from_row_cam[v] = stand_from_plot * motion.WorldFromCam(t_s);
+      }
+    }
+    return f;
+  };
+  std::vector<double> focus_m;
+  if (phone.PerFrameIntrinsics()) {
+    const double crop = phone.stabilisation ? phone.stabilisation_crop : 1.0;
+    const std::vector<Eigen::Vector2d> jitter =
+        phone.stabilisation ? RotationJitter(frames, o.fps, phone.stabilisation_window_s)
+                            : std::vector<Eigen::Vector2d>(frames.size(), Eigen::Vector2d::Zero());
+    std::optional<Autofocus> autofocus;
+    for (size_t i = 0; i < frames.size(); ++i) {
+      double scale = 1.0;
+      if (phone.breathing_pct > 0) {
+        // Focused on the first view before the recording starts; then each frame follows what
+        // the frame before it metered.
+        if (i == 0) {
+          autofocus.emplace(phone.focus_lag_s, renderer->CentreDepth(frame_setup(0, false)));
+        } else {
+          autofocus->Update(renderer->CentreDepth(frame_setup(i - 1, false)), 1.0 / o.fps);
+        }
+        focus_m.push_back(autofocus->focus_m());
+        scale = BreathingScale(autofocus->focus_m(), phone.breathing_pct);
+      }
+      frame_cameras.push_back(FrameCamera(camera, scale, jitter[i], crop));
+    }
+  }
+
   fs::create_directories(o.out_dir);
   WriteJsonAtomic(o.out_dir / "simulate_options.json", nlohmann::json(o));
-  WriteTruth(o.out_dir / "truth.json", scene, camera, rig, frames, o.seed, stand_from_plot);
+  nlohmann::json camera_truth;
+  if (phone.Any() || phone.preset != PhonePreset::kIdeal) {
+    camera_truth["phone"] = phone;
+    camera_truth["row_time"] =
+        "row v of a frame taken at t_s + readout_ms / 1000 * (v / (height - 1) - 1/2): the poses "
+        "are the middle row's";
+  }
+  if (!frame_cameras.empty()) {
+    camera_truth["frames_truth"] = "frames_truth.csv";
+    WriteFramesTruth(o.out_dir / "frames_truth.csv", frames, frame_cameras, focus_m);
+  }
+  WriteTruth(o.out_dir / "truth.json", scene, camera, rig, frames, o.seed, stand_from_plot,
+             camera_truth);
   std::vector<StampedPose> poses;
   for (const RigFrame& f : frames) poses.push_back({f.t_s, f.world_from_cam});
   WriteTumTrajectory(o.out_dir / "trajectory_truth.tum", poses);
@@ -204,7 +283,6 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
                                        : 17.0 * (o.width * o.height) / (1920.0 * 1080.0) *
                                              std::max(0.5, o.fps / 30.0);
   VideoWriter writer(o.out_dir / "video.mp4", vw);
-  const Renderer renderer(scene, camera, RenderOptions{});
   std::vector<int> still_frames;
   for (int k = 0; k < o.stills; ++k) {
     still_frames.push_back(static_cast<int>(frames.size()) * k / std::max(o.stills, 1));
@@ -255,7 +333,7 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
     } join_on_exit{queue, develop};
     for (size_t i = 0; i < frames.size(); ++i) {
       const auto t0 = std::chrono::steady_clock::now();
-      RenderBuffers buffers = renderer.Render(stand_from_plot * frames[i].world_from_cam);
+      RenderBuffers buffers = renderer->Render(frame_setup(i, true));
       summary.render_s +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (!queue.Push({i, std::move(buffers)})) break;  // the developing thread failed

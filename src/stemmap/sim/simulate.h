@@ -4,6 +4,7 @@
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 
+#include "stemmap/sim/phone.h"
 #include "stemmap/sim/scene.h"
 
 namespace stemmap::sim {
@@ -20,8 +21,10 @@ struct SimulateOptions {
   double seconds = 0.0;  // 0: 40-50 s
   double turns = 0.0;    // 0: 1.05-1.15
   double arm_radius_m = 1.0;
-  double hfov_deg = 0.0;      // 0: 60-75°
-  double k1 = 0.0;            // radial distortion of the simulated lens
+  double hfov_deg = 0.0;  // 0: 60-75°; the field through the lens, between the image's sides
+  // Radial distortion of the simulated lens (OpenCV's k1, k2, k3 on normalised coordinates).
+  double k1 = 0.0, k2 = 0.0, k3 = 0.0;
+  PhoneOptions phone;         // rolling shutter, focus breathing, stabilisation, wind
   double bitrate_mbps = 0.0;  // 0: a phone's rate scaled to the frame size
   std::filesystem::path layout_csv;
   std::string layout_plot;  // plot id inside the layout (default: the first)
@@ -47,6 +50,10 @@ struct SimulateSummary {
 };
 
 SimulateSummary RunSimulate(const SimulateOptions& options);
+
+// Sets the lens (hfov_deg, k1-k3) and `phone` to the preset's values; a caller that wants some of
+// them otherwise sets those after.
+void ApplyPhonePreset(PhonePreset preset, SimulateOptions* options);
 
 void to_json(nlohmann::json& j, const SimulateOptions& o);
 

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <map>
+#include <sstream>
+#include <string>
 
 #include "stemmap/core/io.h"
 #include "stemmap/core/units.h"
@@ -50,6 +52,67 @@ TEST(Simulate, AnotherStartAndCentreCaptureTheSameStand) {
   }
   // The rig itself is the same capture in its own frame: the first view along x.
   EXPECT_EQ(moved["poses"][0]["t_xyz"], base["poses"][0]["t_xyz"]);
+}
+
+// A phone's effects recorded with the truth: every option in the camera section, and each
+// frame's intrinsics in frames_truth.csv as the autofocus and the stabilising crop set them.
+TEST(Simulate, PhoneEffectsGoIntoTheTruth) {
+  SimulateOptions o;
+  o.seed = 4;
+  o.kind = StandKind::kNatural;
+  o.truth_only = true;
+  o.width = 320;
+  o.height = 180;
+  o.fps = 10;
+  o.seconds = 6;
+  ApplyPhonePreset(PhonePreset::kMain, &o);
+  o.phone.stabilisation = true;
+  o.out_dir = fs::path(::testing::TempDir()) / "stemmap_simulate_phone";
+  fs::remove_all(o.out_dir);
+  RunSimulate(o);
+  const nlohmann::json truth = ReadJsonFile(o.out_dir / "truth.json");
+  const nlohmann::json& cam = truth.at("intrinsics");
+  EXPECT_EQ(cam.at("phone").at("preset"), "main");
+  EXPECT_EQ(cam.at("phone").at("readout_ms").get<double>(), 25.0);
+  EXPECT_EQ(cam.at("distortion")[1].get<double>(), -0.01);
+  EXPECT_EQ(ReadJsonFile(o.out_dir / "simulate_options.json").at("phone").at("breathing_pct"), 0.7);
+  const double fx0 = cam.at("fx").get<double>(), cx0 = cam.at("cx").get<double>();
+  const std::string csv = ReadFileToString(o.out_dir / "frames_truth.csv");
+  std::istringstream lines(csv);
+  std::string line;
+  std::getline(lines, line);
+  EXPECT_EQ(line, "frame,t_s,fx,fy,cx,cy,focus_m");
+  int rows = 0;
+  double mean_dcx = 0.0, min_fx = 1e9, max_fx = 0.0;
+  while (std::getline(lines, line)) {
+    double v[7];
+    std::istringstream fields(line);
+    for (double& x : v) {
+      std::string f;
+      std::getline(fields, f, ',');
+      x = std::stod(f);
+    }
+    EXPECT_EQ(v[0], rows);
+    EXPECT_NEAR(v[2] / fx0, BreathingScale(v[6], 0.7), 1e-12);  // breathing from the focus
+    EXPECT_EQ(v[2], v[3]);
+    min_fx = std::min(min_fx, v[2]);
+    max_fx = std::max(max_fx, v[2]);
+    mean_dcx += v[4] - cx0;
+    ++rows;
+  }
+  EXPECT_EQ(rows, truth.at("frame_count").get<int>());
+  EXPECT_GE(min_fx, fx0 * 0.993 - 1e-9);
+  EXPECT_LE(max_fx, fx0 * 1.007 + 1e-9);
+  EXPECT_LT(std::abs(mean_dcx / rows), 1.0);  // px: the crop's shifts average out
+
+  // Still air and an ideal camera write the truth as before: no phone section, no per-frame file.
+  SimulateOptions plain = o;
+  ApplyPhonePreset(PhonePreset::kIdeal, &plain);
+  plain.out_dir = fs::path(::testing::TempDir()) / "stemmap_simulate_ideal";
+  fs::remove_all(plain.out_dir);
+  RunSimulate(plain);
+  EXPECT_FALSE(ReadJsonFile(plain.out_dir / "truth.json").at("intrinsics").contains("phone"));
+  EXPECT_FALSE(fs::exists(plain.out_dir / "frames_truth.csv"));
 }
 
 TEST(Simulate, RefusesACentreOffTheStand) {

@@ -1,5 +1,7 @@
 #include "stemmap/sim/truth.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <numbers>
@@ -49,7 +51,7 @@ nlohmann::json TreeJson(const SceneTree& t, const Rigid3d& stand_from_plot) {
 
 void WriteTruth(const std::filesystem::path& path, const Scene& scene, const PinholeCamera& camera,
                 const RigParams& rig, const std::vector<RigFrame>& frames, uint64_t seed,
-                const Rigid3d& stand_from_plot) {
+                const Rigid3d& stand_from_plot, const nlohmann::json& camera_extra) {
   nlohmann::json j;
   j["format"] = "stemmap-truth/1";
   j["frame"] =
@@ -59,7 +61,9 @@ void WriteTruth(const std::filesystem::path& path, const Scene& scene, const Pin
   j["kind"] = ToString(scene.kind);
   nlohmann::json cam = camera;
   cam["hfov_deg"] = camera.HfovDeg();
-  cam["distortion"] = {camera.k1, camera.k2, 0.0, 0.0, 0.0};
+  cam["distortion"] = {camera.k1, camera.k2, 0.0, 0.0, camera.k3};  // OpenCV's order
+  if (camera.HasDistortion()) cam["lens_hfov_deg"] = camera.LensHfovDeg();
+  if (camera_extra.is_object()) cam.update(camera_extra);
   j["intrinsics"] = cam;
   j["arm_radius_m"] = rig.arm_radius_m;
   j["camera_height_m"] = rig.camera_height_m;
@@ -108,6 +112,19 @@ void WriteTruth(const std::filesystem::path& path, const Scene& scene, const Pin
   }
   j["poses"] = poses;
   WriteJsonAtomic(path, j);
+}
+
+void WriteFramesTruth(const std::filesystem::path& path, const std::vector<RigFrame>& frames,
+                      const std::vector<PinholeCamera>& cameras,
+                      const std::vector<double>& focus_m) {
+  // Round-trip digits: a reader sees the very intrinsics each frame was rendered with.
+  std::string csv = focus_m.empty() ? "frame,t_s,fx,fy,cx,cy\n" : "frame,t_s,fx,fy,cx,cy,focus_m\n";
+  for (size_t i = 0; i < frames.size() && i < cameras.size(); ++i) {
+    const PinholeCamera& c = cameras[i];
+    csv += fmt::format("{},{},{},{},{},{}", i, frames[i].t_s, c.fx, c.fy, c.cx, c.cy);
+    csv += i < focus_m.size() ? fmt::format(",{}\n", focus_m[i]) : "\n";
+  }
+  WriteFileAtomic(path, csv);
 }
 
 }  // namespace stemmap::sim
