@@ -100,7 +100,7 @@ void AddProcessCommand(CLI::App& app) {
           ->check(CLI::ExistingDirectory);
   // What only tracking uses cannot be changed for a reused track.
   for (const char* name : {"--arm-radius", "--hfov", "--calibration", "--focal", "--camera-height",
-                           "--working-size", "--track-fps", "--threads"}) {
+                           "--working-size", "--track-fps", "--readout-ms", "--threads"}) {
     from_track->excludes(sub->get_option(name));
   }
   AddMeasureFlags(sub, opt.get());

@@ -39,6 +39,10 @@ void AddTrackOptions(CLI::App* sub, track::TrackOptions* opt, std::filesystem::p
       ->capture_default_str();
   sub->add_option("--track-fps", opt->frontend.track_fps, "Frames tracked per second")
       ->capture_default_str();
+  sub->add_option("--readout-ms", opt->frontend.readout_ms,
+                  "Rolling shutter: time the camera takes to read a frame's rows, top to bottom "
+                  "(ms; about 15-33 on phones, 0: a global shutter)")
+      ->capture_default_str();
   sub->add_option("--threads", opt->bundle.threads,
                   "Bundle adjustment threads (above 1: faster, but not bit-reproducible)")
       ->capture_default_str();

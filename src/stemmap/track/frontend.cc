@@ -27,6 +27,16 @@ void FrontendOptions::Check() const {
   if (!(keyframe_step_deg > 0.2 && keyframe_step_deg < 20)) {
     throw InputError(fmt::format("keyframe step {}° must lie in (0.2, 20)", keyframe_step_deg));
   }
+  if (!(readout_ms >= 0 && readout_ms <= 100)) {
+    throw InputError(fmt::format("--readout-ms {} must lie in [0, 100] ms", readout_ms));
+  }
+}
+
+Eigen::Vector2d AtFrameTime(const Eigen::Vector2d& px, const Eigen::Vector2d& px_per_s,
+                            double readout_s, int rows) {
+  if (readout_s <= 0 || rows < 2) return px;
+  const double after_s = readout_s * (px.y() / (rows - 1) - 0.5);
+  return px - after_s * px_per_s;
 }
 
 namespace {
@@ -65,11 +75,19 @@ struct Tracker {
   Tracker(const FrontendOptions& options, const PinholeCamera& cam) : o(options), camera(cam) {}
   const FrontendOptions& o;
   const PinholeCamera& camera;
-  std::vector<cv::Point2f> pts;    // alive points in the current tracked frame
-  std::vector<int> ids;            // their track ids
-  std::vector<cv::Point2f> at_kf;  // their position at the last keyframe (x < 0: born later)
+  std::vector<cv::Point2f> pts;     // alive points in the current tracked frame
+  std::vector<int> ids;             // their track ids
+  std::vector<cv::Point2f> at_kf;   // their position at the last keyframe (x < 0: born later)
+  std::vector<cv::Point2f> vel;     // their image velocity (px/s) from the frame before
+  cv::Point2f frame_vel{0.f, 0.f};  // the median of the points' velocities
   std::vector<std::vector<Observation>> tracks;
   size_t alive_at_kf = 0;
+
+  // Point i where it was at the frame's time (FrontendOptions::readout_ms).
+  Eigen::Vector2d AtFrameTime(size_t i, int rows) const {
+    return track::AtFrameTime({pts[i].x, pts[i].y}, {vel[i].x, vel[i].y}, 1e-3 * o.readout_ms,
+                              rows);
+  }
 
   double AzimuthRad(const cv::Point2f& p) const { return std::atan((p.x - camera.cx) / camera.fx); }
 
@@ -99,13 +117,14 @@ struct Tracker {
       pts.push_back(p);
       ids.push_back(static_cast<int>(tracks.size()));
       at_kf.emplace_back(-1.f, -1.f);
+      vel.push_back(frame_vel);  // a new point moves as the picture does, at first
       tracks.emplace_back();
     }
   }
 
-  void RecordKeyframe(int kf) {
+  void RecordKeyframe(int kf, int rows) {
     for (size_t i = 0; i < pts.size(); ++i) {
-      tracks[ids[i]].push_back({kf, Eigen::Vector2d(pts[i].x, pts[i].y)});
+      tracks[ids[i]].push_back({kf, AtFrameTime(i, rows)});
       at_kf[i] = pts[i];
     }
     alive_at_kf = pts.size();
@@ -159,6 +178,14 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     kf.t_s = t_s;
     orb->detectAndCompute(gray, cv::noArray(), kf.orb_keypoints, kf.orb_descriptors);
     kf.vertical_segments = VerticalSegments(o, gray, lsd.get());
+    for (cv::Vec4f& l : kf.vertical_segments) {
+      for (int e : {0, 2}) {
+        const Eigen::Vector2d at = AtFrameTime({l[e], l[e + 1]}, {tr.frame_vel.x, tr.frame_vel.y},
+                                               1e-3 * o.readout_ms, gray.rows);
+        l[e] = static_cast<float>(at.x());
+        l[e + 1] = static_cast<float>(at.y());
+      }
+    }
     kf.gray = gray.clone();  // `gray` is the next frame's buffer
     if (o.keep_keyframe_images) {
       kf.bgr = bgr;
@@ -166,7 +193,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     }
     r.keyframes.push_back(std::move(kf));
     tr.Seed(gray);
-    tr.RecordKeyframe(static_cast<int>(r.keyframes.size()) - 1);
+    tr.RecordKeyframe(static_cast<int>(r.keyframes.size()) - 1, gray.rows);
   };
 
   int last_tracked = -1;
@@ -197,12 +224,13 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     cv::buildOpticalFlowPyramid(gray, pyr, win, o.lk_levels);
     ++tracked_frames;
     last_tracked = fi;
-    last_t = f->t_s;
     bgr = f->bgr;
     gray_full = f->gray_full;
+    const double dt_s = f->t_s - last_t;
     if (prev_pyr.empty()) {
       add_keyframe(fi, f->t_s);
       std::swap(prev_pyr, pyr);
+      last_t = f->t_s;
       continue;
     }
     std::vector<cv::Point2f> next, back;
@@ -236,16 +264,22 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
       }
       dx.push_back(p.x - tr.pts[i].x);
       dy.push_back(p.y - tr.pts[i].y);
+      if (dt_s > 0) tr.vel[i] = (p - tr.pts[i]) * static_cast<float>(1.0 / dt_s);
       tr.pts[k] = p;
       tr.ids[k] = tr.ids[i];
       tr.at_kf[k] = tr.at_kf[i];
+      tr.vel[k] = tr.vel[i];
       ++k;
     }
     tr.pts.resize(k);
     tr.ids.resize(k);
     tr.at_kf.resize(k);
-    r.sideways_motion_px += std::abs(Median(&dx));
-    r.vertical_motion_px += std::abs(Median(&dy));
+    tr.vel.resize(k);
+    last_t = f->t_s;
+    const float med_dx = Median(&dx), med_dy = Median(&dy);
+    r.sideways_motion_px += std::abs(med_dx);
+    r.vertical_motion_px += std::abs(med_dy);
+    if (dt_s > 0) tr.frame_vel = cv::Point2f(med_dx, med_dy) * static_cast<float>(1.0 / dt_s);
     tracked_sum += k;
     std::swap(prev_pyr, pyr);
 
@@ -263,7 +297,9 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
       b.t_s = f->t_s;
       b.track = tr.ids;
       b.px.reserve(tr.pts.size());
-      for (const cv::Point2f& p : tr.pts) b.px.emplace_back(p.x, p.y);
+      for (size_t i = 0; i < tr.pts.size(); ++i) {
+        b.px.push_back(tr.AtFrameTime(i, gray.rows).cast<float>());
+      }
     }
   }
   progress.Finish();

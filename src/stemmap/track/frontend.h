@@ -35,6 +35,12 @@ struct FrontendOptions {
   // and low in contrast, give only pieces, and it takes many trunks to average out their leans.
   double segment_min_length = 0.04;
   double segment_max_tilt_deg = 15.0;  // and furthest from the image vertical
+  // A rolling shutter reads the rows top to bottom over this time (ms; 0: a global shutter): a
+  // point in row y is seen readout (y / (rows - 1) - 1/2) after the frame's time, its middle
+  // row's. Each observation is moved back to that time along its own image velocity (from the
+  // frame before), and each trunk segment's ends along the frame's median velocity, so a turning
+  // camera's slant leaves neither the poses nor the vertical.
+  double readout_ms = 0.0;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -43,12 +49,17 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     FrontendOptions, working_long_side_px, track_fps, max_features, min_feature_distance_px,
     feature_quality, lk_window_px, lk_levels, lk_refine_window_px, lk_refine_levels,
     lk_refine_max_shift_px, max_forward_backward_px, keyframe_step_deg, orb_features,
-    keep_keyframe_images, dark_mean_luma, segment_min_length, segment_max_tilt_deg)
+    keep_keyframe_images, dark_mean_luma, segment_min_length, segment_max_tilt_deg, readout_ms)
 
 struct Observation {
   int keyframe = 0;
-  Eigen::Vector2d px;  // working-resolution pixel
+  Eigen::Vector2d px;  // working-resolution pixel (at the frame's time: readout_ms)
 };
+
+// Where a point seen at `px` (its row's time) with image velocity `px_per_s` was at the frame's
+// time, its middle row's, for rows read over `readout_s` in an image `rows` high.
+Eigen::Vector2d AtFrameTime(const Eigen::Vector2d& px, const Eigen::Vector2d& px_per_s,
+                            double readout_s, int rows);
 
 struct Track {
   std::vector<Observation> obs;  // ordered by keyframe

@@ -86,6 +86,12 @@ void TrackOptions::Check() const {
     throw InputError(fmt::format("focal mode '{}' is not auto, fixed or refine", focal));
   }
   if (bundle_rounds < 1) throw InputError("at least one bundle adjustment round is needed");
+  if (!(apparent_turn_parallax >= 0 && apparent_turn_parallax < 0.2) ||
+      !(calibration_focal_tolerance > 0 && calibration_focal_tolerance < 0.5)) {
+    throw InputError(
+        "the apparent turn's parallax share must lie in [0, 0.2) and the calibration's focal "
+        "tolerance in (0, 0.5)");
+  }
   frontend.Check();
   loop.Check();
   frames.Check();
@@ -93,6 +99,22 @@ void TrackOptions::Check() const {
   BundleOptions b = bundle;
   b.arm_radius_m = arm_radius_m;
   b.Check();
+}
+
+std::string CalibrationFocalWarning(const TrackOptions& o, double apparent_turn_factor) {
+  if (o.calibration.empty() || o.focal == "refine" || !(apparent_turn_factor > 0)) return {};
+  const double low = 1.0 - o.calibration_focal_tolerance;
+  const double high = 1.0 + o.apparent_turn_parallax + o.calibration_focal_tolerance;
+  if (apparent_turn_factor >= low && apparent_turn_factor <= high) return {};
+  // The apparent turn scales as the calibration's focal length over the video's.
+  const double longer_pct =
+      100.0 * (apparent_turn_factor / (1.0 + 0.5 * o.apparent_turn_parallax) - 1.0);
+  return fmt::format(
+      "the video's focal length looks {:.0f} % {} than the calibration's (a turn of the arm "
+      "looked like {:.0f}°): in-camera stabilisation crops the picture (turn it off), or the "
+      "video was recorded with another lens, zoom or video mode than the calibration; positions "
+      "and diameters will be off by about as much",
+      std::abs(longer_pct), longer_pct > 0 ? "longer" : "shorter", 360.0 * apparent_turn_factor);
 }
 
 std::string TrackResult::BriefReport() const {
@@ -179,6 +201,9 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
         std::abs(turn.back()) / kDeg, damage));
   }
   const double to_true = 2.0 * M_PI / loop.apparent_per_turn_rad;
+  const std::string focal_warning =
+      CalibrationFocalWarning(o, loop.apparent_per_turn_rad / (2.0 * M_PI));
+  if (!focal_warning.empty()) spdlog::warn("{}", focal_warning);
   std::vector<double> phi(turn.size());
   for (size_t k = 0; k < turn.size(); ++k) phi[k] = turn[k] * to_true;
   const double turn_deg = std::abs(phi.back()) / kDeg;
@@ -301,6 +326,8 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
   s["turn_deg"] = turn_deg;
   s["direction"] = phi.back() >= 0 ? "counter-clockwise" : "clockwise";
   s["apparent_turn_factor"] = loop.apparent_per_turn_rad / (2.0 * M_PI);
+  s["warnings"] = nlohmann::json::array();
+  if (!focal_warning.empty()) s["warnings"].push_back(focal_warning);
   s["loop_pairs"] = loop.pairs.size();
   s["observations_refined"] = refine_report;
   s["loop_merged_tracks"] = loop.merged_tracks + loop.extended_tracks;

@@ -47,15 +47,27 @@ struct TrackOptions {
   BundleOptions bundle;
   FramePoseOptions frames;
   GroundFitOptions ground;  // the ground under the sparse points, without --camera-height
+  // With a calibration, a turn of the arm looks like a turn times the apparent turn factor: 1,
+  // plus up to apparent_turn_parallax (the arm carries the camera sideways, which turns the near
+  // scene a little more). Beyond that band by more than this share, the video's focal length is
+  // not the calibration's: a stabilising crop (in-camera stabilisation on), another lens, zoom or
+  // video mode. The run warns, with the fix.
+  double apparent_turn_parallax = 0.03;
+  double calibration_focal_tolerance = 0.04;
   void Check() const;
 };
+
+// The warning for a calibrated run whose apparent turn per turn of the arm (`apparent_turn_factor`)
+// says that the video's focal length is not the calibration's; empty when it agrees.
+std::string CalibrationFocalWarning(const TrackOptions& options, double apparent_turn_factor);
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(TrackOptions, arm_radius_m, hfov_deg, calibration,
                                                 focal, camera_height_m, min_turn_deg,
                                                 max_dark_share, max_bridged_gap_s, bundle_rounds,
                                                 refine_observations, refine, frontend, loop,
-                                                vertical, bundle, frames, ground)
+                                                vertical, bundle, frames, ground,
+                                                apparent_turn_parallax, calibration_focal_tolerance)
 
 struct TrackResult {
   PinholeCamera camera;                  // working resolution
