@@ -1,0 +1,95 @@
+#!/usr/bin/env bash
+# Real-phone camera effects against the ideal camera, on the same plots: each plot is rendered
+# with the ideal camera, with each effect of the `main` phone preset alone (rolling shutter,
+# residual distortion, focus breathing, wind), with the whole preset, and with the preset and
+# in-camera stabilisation; every render goes through `process` with the truth's calibration (the
+# lens as a calibration gives it), the measured camera height and, for the rolling shutter, the
+# preset's readout (`--readout-ms`). Reports per plot and variant recall, precision, DBH MAE and
+# bias, position RMSE and the camera-up error, and the pooled figures per variant.
+# Usage: bench/phone.sh [BUILD_DIR] [DATA_DIR]
+#   SEEDS or FRESH=N and KINDS as in bench/plots.sh; SIZE (default 960x540) and FPS (default 15).
+set -euo pipefail
+here=$(cd "$(dirname "$0")" && pwd)
+source "$here/common.sh"
+size=${SIZE:-960x540}
+fps=${FPS:-15}
+width=${size%x*}
+height=${size#*x}
+# name : simulate flags : process flags
+variants=(
+  "ideal::"
+  "shutter:--readout-ms 25:--readout-ms 25"
+  "distortion:--k1 0.02 --k2 -0.01:"
+  "breathing:--breathing-pct 0.7:"
+  "wind:--wind 0.5:"
+  "main:--phone main:--readout-ms 25"
+  "main-stabilised:--phone main --stabilisation:--readout-ms 25"
+)
+
+rows="$data/phone_rows.txt"
+: > "$rows"
+for kind in $kinds; do
+  for seed in $seeds; do
+    for v in "${variants[@]}"; do
+      IFS=: read -r name sim_flags proc_flags <<< "$v"
+      dir="$data/$kind-$seed/$name"
+      mkdir -p "$dir"
+      if [ ! -f "$dir/video.mp4" ]; then
+        "$bin" --log-level warn simulate --seed "$seed" --kind "$kind" --width "$width" \
+          --height "$height" --fps "$fps" --stills 0 $sim_flags --out "$dir" > "$dir.simulate.log" 2>&1
+      fi
+      # The phone's calibration, as `stemmap calibrate` gives it with stabilisation off (as the
+      # README says to calibrate): the stabilised video's crop is not in it.
+      calib_from="$dir/truth.json"
+      case "$name" in *-stabilised) calib_from="$data/$kind-$seed/main/truth.json" ;; esac
+      python3 "$here/truth_calibration.py" "$calib_from" "$dir/calibration.yaml"
+      if [ ! -f "$dir/run/trees.csv" ]; then
+        height_m=$(python3 -c "import json;print(json.load(open('$dir/truth.json'))['camera_height_m'])")
+        "$bin" --log-level info process "$dir/video.mp4" --arm-radius 1.0 \
+          --calibration "$dir/calibration.yaml" --camera-height "$height_m" --no-report \
+          $proc_flags --out "$dir/run" > "$dir.process.log" 2>&1 || true
+      fi
+      if [ -f "$dir/run/trees.csv" ]; then
+        "$bin" --log-level warn evaluate --truth "$dir/truth.json" --pred "$dir/run/trees.csv" \
+          --trajectory "$dir/run/trajectory.tum" --out "$dir/eval" > /dev/null 2>&1 || true
+      fi
+      warned=$(grep -ci "stabilis" "$dir.process.log" || true)
+      echo "$kind-$seed $name $dir $warned" >> "$rows"
+    done
+  done
+done
+
+python3 - "$rows" <<'PY'
+import json, math, sys
+rows = [l.split() for l in open(sys.argv[1]) if l.strip()]
+def load(d):
+    try:
+        return json.load(open(f"{d}/eval/evaluation.json"))
+    except (OSError, ValueError):
+        return None
+print("| plot | camera | recall | precision | DBH MAE (cm) | DBH bias (cm) | position RMSE (cm) | camera-up error (°) | stabilisation warned |")
+print("|---|---|---|---|---|---|---|---|---|")
+pooled = {}
+for plot, name, d, warned in rows:
+    e = load(d)
+    if e is None:
+        print(f"| {plot} | {name} | failed | | | | | | |")
+        continue
+    t, tr = e["raw"], e.get("trajectory", {})
+    print(f"| {plot} | {name} | {t['recall']:.3f} | {t['precision']:.3f} | {t['dbh']['mae_cm']:.2f} | "
+          f"{t['dbh']['bias_cm']:+.2f} | {100 * t['position_rmse_m']:.1f} | "
+          f"{tr.get('mean_up_error_deg', float('nan')):.2f} | {'yes' if int(warned) else 'no'} |")
+    p = pooled.setdefault(name, {"tp": 0, "truth": 0, "pred": 0, "abs": 0.0, "bias": 0.0, "sq": 0.0, "up": []})
+    m = t["n_matched"]
+    p["tp"] += m; p["truth"] += t["n_truth"]; p["pred"] += t["n_predicted"]
+    p["abs"] += t["dbh"]["mae_cm"] * m; p["bias"] += t["dbh"]["bias_cm"] * m
+    p["sq"] += t["position_rmse_m"] ** 2 * m; p["up"].append(tr.get("mean_up_error_deg", float("nan")))
+print()
+print("| camera | plots | recall | precision | DBH MAE (cm) | DBH bias (cm) | position RMSE (cm) | mean camera-up error (°) |")
+print("|---|---|---|---|---|---|---|---|")
+for name, p in pooled.items():
+    n = max(1, p["tp"])
+    print(f"| {name} | {len(p['up'])} | {p['tp'] / max(1, p['truth']):.3f} | {p['tp'] / max(1, p['pred']):.3f} | "
+          f"{p['abs'] / n:.2f} | {p['bias'] / n:+.2f} | {100 * math.sqrt(p['sq'] / n):.1f} | "
+          f"{sum(p['up']) / len(p['up']):.2f} |")
+PY
