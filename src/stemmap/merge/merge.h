@@ -22,7 +22,7 @@ struct MergeOptions {
 };
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(RegisterOptions, match_radius_m, dbh_share,
                                                 dbh_slack_cm, min_spacing_m, spacing_tolerance_m,
-                                                min_matches)
+                                                min_matches, robust_scale_m)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(MergeOptions, registration, min_matched_share,
                                                 max_rms_m)
 

@@ -27,6 +27,10 @@ struct RegisterOptions {
   double min_spacing_m = 1.0;  // a proposal needs its two stems at least this far apart (m)
   double spacing_tolerance_m = 0.15;
   int min_matches = 3;  // fewer stems matched: no registration
+  // The matched stems' final fit weighs each by 1 / (1 + (d / robust_scale_m)^2), d its distance
+  // after the transform (m; 0: plain least squares): stems agree to a few centimetres, and the
+  // one a run placed a decimetre off must not drag the plot.
+  double robust_scale_m = 0.03;
   void Check() const;
 };
 

@@ -29,8 +29,9 @@ Stand MakeStand(uint64_t seed, int n) {
 
 // The stand as a run from a tripod at `centre` with its first view at `yaw_deg` sees it: within
 // 11 m, some stems missed, a few false ones, positions and DBH with noise.
+// `off_share` of the stems are placed 8-20 cm off instead (a fit from one side, a smeared cloud).
 std::vector<MapStem> Capture(const Stand& s, const Eigen::Vector2d& centre, double yaw_deg,
-                             uint64_t seed) {
+                             uint64_t seed, double off_share = 0.0) {
   Rng rng(seed);
   const double c = std::cos(-yaw_deg * kDeg), sn = std::sin(-yaw_deg * kDeg);
   std::vector<MapStem> run;
@@ -38,8 +39,12 @@ std::vector<MapStem> Capture(const Stand& s, const Eigen::Vector2d& centre, doub
     const Eigen::Vector2d d = t.xy - centre;
     if (d.norm() > 11.0 || rng.Uniform() < 0.12) continue;
     const Eigen::Vector2d p(c * d.x() - sn * d.y(), sn * d.x() + c * d.y());
-    run.push_back({p + Eigen::Vector2d(rng.Normal(0, 0.02), rng.Normal(0, 0.02)),
-                   t.dbh_cm + rng.Normal(0, 0.7)});
+    Eigen::Vector2d noise(rng.Normal(0, 0.02), rng.Normal(0, 0.02));
+    if (rng.Uniform() < off_share) {
+      const double a = rng.Uniform(0, 2 * M_PI), r = rng.Uniform(0.08, 0.2);
+      noise = r * Eigen::Vector2d(std::cos(a), std::sin(a));
+    }
+    run.push_back({p + noise, t.dbh_cm + rng.Normal(0, 0.7)});
   }
   for (int k = 0; k < 2; ++k) {
     const double r = 10 * std::sqrt(rng.Uniform()), a = rng.Uniform(0, 2 * M_PI);
@@ -76,6 +81,30 @@ TEST(RegisterMaps, FindsTheTurnAndShiftBetweenTwoCapturesOfAStand) {
     EXPECT_GT(g.matched_share, 0.6);
     EXPECT_LT(g.rms_m, 0.05);
   }
+}
+
+// A fifth of each run's stems placed a decimetre or two off, the rest within 2 cm, over 40
+// stands: the robust fit puts the second tripod within 2.5 cm on average, and at least a fifth
+// nearer the truth than plain least squares (measured: 2.0 against 2.9 cm).
+TEST(RegisterMaps, StemsPlacedADecimetreOffDoNotDragTheRegistration) {
+  constexpr int kStands = 40;
+  double robust_sum = 0.0, plain_sum = 0.0;
+  RegisterOptions plain;
+  plain.robust_scale_m = 0.0;
+  for (uint64_t seed = 1; seed <= kStands; ++seed) {
+    SCOPED_TRACE(::testing::Message() << "seed " << seed);
+    const Stand stand = MakeStand(seed, 22);
+    const std::vector<MapStem> a = Capture(stand, {0, 0}, 0.0, 20 * seed, 0.2);
+    const std::vector<MapStem> b = Capture(stand, {0.7, -0.4}, 0.0, 20 * seed + 1, 0.2);
+    const Registration robust = RegisterMaps({}, a, b), ls = RegisterMaps(plain, a, b);
+    ASSERT_TRUE(robust.ok);
+    ASSERT_TRUE(ls.ok);
+    // b's centre lies at (0.7, -0.4) in a's frame.
+    robust_sum += (robust.Apply({0, 0}) - Eigen::Vector2d(0.7, -0.4)).norm();
+    plain_sum += (ls.Apply({0, 0}) - Eigen::Vector2d(0.7, -0.4)).norm();
+  }
+  EXPECT_LT(robust_sum / kStands, 0.025);
+  EXPECT_LT(robust_sum, 0.8 * plain_sum);
 }
 
 TEST(RegisterMaps, TwoStandsDoNotRegisterAsOne) {
