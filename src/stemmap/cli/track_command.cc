@@ -27,7 +27,8 @@ void AddTrackOptions(CLI::App* sub, track::TrackOptions* opt, std::filesystem::p
       ->check(CLI::ExistingFile)
       ->excludes(hfov);
   sub->add_option("--focal", opt->focal,
-                  "Focal length in bundle adjustment: auto (refined unless --calibration), fixed "
+                  "Focal length in bundle adjustment: auto or refine (refined from the "
+                  "calibration's or --hfov's), or fixed (the calibration's) "
                   "or refine")
       ->check(CLI::IsMember({"auto", "fixed", "refine"}))
       ->capture_default_str();

@@ -102,7 +102,7 @@ void TrackOptions::Check() const {
 }
 
 std::string CalibrationFocalWarning(const TrackOptions& o, double apparent_turn_factor) {
-  if (o.calibration.empty() || o.focal == "refine" || !(apparent_turn_factor > 0)) return {};
+  if (o.calibration.empty() || !(apparent_turn_factor > 0)) return {};
   const double low = 1.0 - o.calibration_focal_tolerance;
   const double high = 1.0 + o.apparent_turn_parallax + o.calibration_focal_tolerance;
   if (apparent_turn_factor >= low && apparent_turn_factor <= high) return {};
@@ -218,7 +218,7 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
   SparseMap map;
   BundleOptions bo = o.bundle;
   bo.arm_radius_m = o.arm_radius_m;
-  bo.refine_focal = o.focal == "refine" || (o.focal == "auto" && o.calibration.empty());
+  bo.refine_focal = o.focal != "fixed";
   PlaceOnCircle(phi, o.arm_radius_m, &map);
   nlohmann::json rounds = nlohmann::json::array();
   BundleSummary bs;

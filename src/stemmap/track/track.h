@@ -25,7 +25,11 @@ struct TrackOptions {
   double arm_radius_m = 1.0;
   double hfov_deg = kDefaultPhoneHfovDeg;  // used when `calibration` is empty
   std::filesystem::path calibration;       // OpenCV YAML from `stemmap calibrate`
-  // Refine the focal length in bundle adjustment: "auto" does so when no calibration is given.
+  // Refine the focal length in bundle adjustment, from the calibration's (or --hfov's): the
+  // closed loop makes it observable. A far stem's range rests on the small excess of its apparent
+  // turn over the camera's, so a focal length 0.7 % off (a phone's autofocus breathing, a
+  // calibration at another focus) puts stems 10 m out 6 % too far; refined, it does not. "auto"
+  // and "refine" refine it, "fixed" keeps the calibration's.
   std::string focal = "auto";  // auto, fixed or refine
   // Arm height above the ground at the tripod, measured with a tape (m). 0: estimate it from the
   // ground seen around the plot, which misses any bump right under the tripod (the camera faces

@@ -22,9 +22,7 @@ TEST(CalibrationFocalWarning, WarnsOnlyWhenTheTurnSaysTheFocalLengthIsAnother) {
     EXPECT_NE(w.find("longer"), std::string::npos) << w;
   }
   EXPECT_NE(CalibrationFocalWarning(o, 0.9).find("shorter"), std::string::npos);
-  // Without a calibration (or with the focal length refined) nothing says what it should be.
-  o.focal = "refine";
-  EXPECT_EQ(CalibrationFocalWarning(o, 1.15), "");
+  // Without a calibration nothing says what it should be.
   o = TrackOptions();
   EXPECT_EQ(CalibrationFocalWarning(o, 1.15), "");
   o.calibration_focal_tolerance = 0;
