@@ -238,7 +238,8 @@ TEST_F(BadInput, AStoppedRunSaysWhatWasKeptAndLeavesTheEarlierOne) {
   for (const auto& [signal, code] : {std::pair{"INT", 130}, std::pair{"TERM", 143}}) {
     SCOPED_TRACE(signal);
     // The track of the 9-s clip takes a few seconds; the signal comes while it runs, once its
-    // staging folder is there.
+    // staging folder is there (the one an earlier stopped run left is no sign of this one).
+    fs::remove_all(StagingFolderFor(out));
     const Outcome o =
         RunStemmap(fmt::format("track {} --hfov 65 --out {}", Quote(Plot()), Quote(out)), signal,
                    0.3, StagingFolderFor(out));
