@@ -12,14 +12,13 @@
 namespace stemmap::sim {
 namespace {
 
-// One stem 4 m in front of a level camera at the origin: it must appear where projection says,
-// with the right width, and the render must be deterministic.
-TEST(Renderer, StemAppearsWhereTheCameraModelPutsIt) {
+// The layout's one stem, smooth and upright on flat ground, 4 m ahead of a level camera at the
+// origin (its parameters in `stem`).
+Scene OneStemScene(StemParams* stem) {
   SceneOptions o;
   o.layout = {{4.0, 0.0, 40.0}};
   o.seed = 5;
   Scene scene = GenerateScene(o);
-  // Keep only the layout stem, make it smooth and upright, on flat ground.
   scene.trees.erase(scene.trees.begin() + 1, scene.trees.end());
   scene.shrubs.clear();
   StemParams p = scene.trees[0].stem.params();
@@ -28,6 +27,15 @@ TEST(Renderer, StemAppearsWhereTheCameraModelPutsIt) {
   p.furrow_depth_m = 0;
   p.base_world = {4.0, 0.0, scene.ground.Height(4.0, 0.0)};
   scene.trees[0] = SceneTree(p);
+  *stem = p;
+  return scene;
+}
+
+// One stem 4 m in front of a level camera at the origin: it must appear where projection says,
+// with the right width, and the render must be deterministic.
+TEST(Renderer, StemAppearsWhereTheCameraModelPutsIt) {
+  StemParams p;
+  const Scene scene = OneStemScene(&p);
   const PinholeCamera cam = PinholeCamera::FromHfov(320, 180, 60.0);
   const Renderer renderer(scene, cam, RenderOptions{});
   Rigid3d world_from_cam;
@@ -77,24 +85,6 @@ TEST(Renderer, StemAppearsWhereTheCameraModelPutsIt) {
   } catch (const std::invalid_argument& e) {
     EXPECT_STREQ(e.what(), "sensor: frame size differs from the camera's");
   }
-}
-
-// The stem of StemAppearsWhereTheCameraModelPutsIt, 4 m ahead of a level camera at 1.3 m.
-Scene OneStemScene(StemParams* stem) {
-  SceneOptions o;
-  o.layout = {{4.0, 0.0, 40.0}};
-  o.seed = 5;
-  Scene scene = GenerateScene(o);
-  scene.trees.erase(scene.trees.begin() + 1, scene.trees.end());
-  scene.shrubs.clear();
-  StemParams p = scene.trees[0].stem.params();
-  p.lean_rad = 0;
-  p.axis_ratio = 1.0;
-  p.furrow_depth_m = 0;
-  p.base_world = {4.0, 0.0, scene.ground.Height(4.0, 0.0)};
-  scene.trees[0] = SceneTree(p);
-  *stem = p;
-  return scene;
 }
 
 Rigid3d LookingAlongX() {
