@@ -135,15 +135,7 @@ double PinholeCamera::UndistortedRadius(double r_distorted) const {
   return r;
 }
 
-Eigen::Vector2d PinholeCamera::ImageFromCam(const Eigen::Vector3d& p_cam) const {
-  const double x = p_cam.x() / p_cam.z(), y = p_cam.y() / p_cam.z();
-  const double d = DistortionFactor(x * x + y * y);
-  return {fx * x * d + cx, fy * y * d + cy};
-}
-
-Eigen::Vector3d PinholeCamera::CamRayFromImage(const Eigen::Vector2d& px) const {
-  const double xd = (px.x() - cx) / fx, yd = (px.y() - cy) / fy;
-  if (!HasDistortion()) return {xd, yd, 1.0};
+Eigen::Vector3d PinholeCamera::UndistortedRay(double xd, double yd) const {
   // The distortion is radial: undistort the radius, keep the direction.
   const double rd = std::sqrt(xd * xd + yd * yd);
   if (rd == 0.0) return {xd, yd, 1.0};

@@ -39,11 +39,22 @@ struct PinholeCamera {
   }
   // The undistorted radius whose distorted radius is `r_distorted` (normalised coordinates).
   double UndistortedRadius(double r_distorted) const;
+  // The unit-z ray whose distorted normalised coordinates are (xd, yd).
+  Eigen::Vector3d UndistortedRay(double xd, double yd) const;
 
-  // Pixel of a point in camera coordinates (z > 0 required by the caller).
-  Eigen::Vector2d ImageFromCam(const Eigen::Vector3d& p_cam) const;
+  // Pixel of a point in camera coordinates (z > 0 required by the caller). Inline, as are rays
+  // through pixels: silhouette searches call both for every pixel of their windows.
+  Eigen::Vector2d ImageFromCam(const Eigen::Vector3d& p_cam) const {
+    const double x = p_cam.x() / p_cam.z(), y = p_cam.y() / p_cam.z();
+    const double d = DistortionFactor(x * x + y * y);
+    return {fx * x * d + cx, fy * y * d + cy};
+  }
   // Unit-z ray (x, y, 1) through a pixel, with distortion removed.
-  Eigen::Vector3d CamRayFromImage(const Eigen::Vector2d& px) const;
+  Eigen::Vector3d CamRayFromImage(const Eigen::Vector2d& px) const {
+    const double xd = (px.x() - cx) / fx, yd = (px.y() - cy) / fy;
+    if (!HasDistortion()) return {xd, yd, 1.0};
+    return UndistortedRay(xd, yd);
+  }
   // Same camera for an image scaled by `s` (e.g. a working resolution).
   PinholeCamera Scaled(double s) const;
 };

@@ -6,16 +6,6 @@
 
 namespace stemmap::stems {
 
-float BilinearGray(const cv::Mat& img, double x, double y) {
-  if (!(x >= 0 && y >= 0 && x <= img.cols - 2 && y <= img.rows - 2)) return -1.f;
-  const int xi = static_cast<int>(x), yi = static_cast<int>(y);
-  const double fx = x - xi, fy = y - yi;
-  const uchar* r0 = img.ptr<uchar>(yi);
-  const uchar* r1 = img.ptr<uchar>(yi + 1);
-  return static_cast<float>((1 - fy) * ((1 - fx) * r0[xi] + fx * r0[xi + 1]) +
-                            fy * ((1 - fx) * r1[xi] + fx * r1[xi + 1]));
-}
-
 namespace {
 
 double Median(std::vector<double> v) {
@@ -112,9 +102,11 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   // Where each pixel's ray meets the stem's surface (or the axis plane), shared by both
   // neighbours; NaN where the ray goes away from it.
   std::vector<Eigen::Vector3d> on_stem(static_cast<size_t>(y_end - y_begin + 1) * width);
+  // Rotations as matrices: a quaternion costs twice the multiplications per pixel.
+  const Eigen::Matrix3d world_from_k_rotation = world_from_k.rotation.toRotationMatrix();
   for (int y = y_begin; y <= y_end; ++y) {
     for (int x = x_begin; x <= x_end; ++x) {
-      const Eigen::Vector3d ray = world_from_k.rotation * cam.CamRayFromImage({x, y});
+      const Eigen::Vector3d ray = world_from_k_rotation * cam.CamRayFromImage({x, y});
       const double t = depth_along(ray);
       on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)] =
           t <= 0 ? Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())
@@ -130,13 +122,14 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
     }
     if (j < 0 || j >= static_cast<int>(kfs.size()) || (*v.gray)[j].empty()) continue;
     const Rigid3d j_from_world = kfs[j].world_from_cam.Inverse();
+    const Eigen::Matrix3d j_from_world_rotation = j_from_world.rotation.toRotationMatrix();
     const cv::Mat& img_j = (*v.gray)[j];
     for (int y = y_begin; y <= y_end; ++y) {
       for (int x = x_begin; x <= x_end; ++x) {
         const Eigen::Vector3d& p_w =
             on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)];
         if (std::isnan(p_w.x())) continue;
-        const Eigen::Vector3d p_j = j_from_world * p_w;
+        const Eigen::Vector3d p_j = j_from_world_rotation * p_w + j_from_world.translation;
         if (p_j.z() <= 0.1) continue;
         const Eigen::Vector2d px = cam.ImageFromCam(p_j);
         const float vj = BilinearGray(img_j, px.x(), px.y());

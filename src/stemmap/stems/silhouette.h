@@ -13,8 +13,17 @@
 
 namespace stemmap::stems {
 
-// Bilinear sample of an 8-bit image; -1 outside it (or at NaN).
-float BilinearGray(const cv::Mat& img, double x, double y);
+// Bilinear sample of an 8-bit image; -1 outside it (or at NaN). Inline: the silhouette search
+// samples every pixel of its windows in two neighbours.
+inline float BilinearGray(const cv::Mat& img, double x, double y) {
+  if (!(x >= 0 && y >= 0 && x <= img.cols - 2 && y <= img.rows - 2)) return -1.f;
+  const int xi = static_cast<int>(x), yi = static_cast<int>(y);
+  const double fx = x - xi, fy = y - yi;
+  const uchar* r0 = img.ptr<uchar>(yi);
+  const uchar* r1 = img.ptr<uchar>(yi + 1);
+  return static_cast<float>((1 - fy) * ((1 - fx) * r0[xi] + fx * r0[xi + 1]) +
+                            fy * ((1 - fx) * r1[xi] + fx * r1[xi + 1]));
+}
 
 struct Edges {
   bool left = false, right = false;
