@@ -21,6 +21,11 @@ void BundleOptions::Check() const {
     throw InputError("bundle adjustment sigmas must be positive");
   }
   if (min_observations < 2) throw InputError("points need at least 2 observations");
+  if (max_iterations < 1) throw InputError("bundle adjustment needs at least 1 iteration");
+  if (!(function_tolerance > 0 && function_tolerance < 0.1 && early_round_function_tolerance > 0 &&
+        early_round_function_tolerance < 0.1)) {
+    throw InputError("bundle adjustment function tolerances must lie in (0, 0.1)");
+  }
 }
 
 std::string BundleSummary::BriefReport() const {
@@ -247,7 +252,7 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
       n_kf <= o.dense_schur_max_keyframes ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   so.num_threads = o.threads;
   so.max_num_iterations = o.max_iterations;
-  so.function_tolerance = 1e-6;
+  so.function_tolerance = o.function_tolerance;
   so.logging_type = ceres::SILENT;
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);

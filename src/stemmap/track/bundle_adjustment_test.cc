@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
+#include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
 
 namespace stemmap::track {
@@ -106,6 +109,17 @@ TEST(BundleAdjustment, RejectsBadOptions) {
   BundleOptions o;
   o.arm_radius_m = 0.0;
   EXPECT_ANY_THROW(o.Check());
+  for (double tolerance : {0.0, -1e-6, 0.5, std::numeric_limits<double>::quiet_NaN()}) {
+    BundleOptions t;
+    t.function_tolerance = tolerance;
+    EXPECT_THROW(t.Check(), InputError) << tolerance;
+    t = BundleOptions();
+    t.early_round_function_tolerance = tolerance;
+    EXPECT_THROW(t.Check(), InputError) << tolerance;
+  }
+  BundleOptions no_iterations;
+  no_iterations.max_iterations = 0;
+  EXPECT_THROW(no_iterations.Check(), InputError);
 }
 
 }  // namespace

@@ -238,7 +238,11 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
       refine_s = refine_clock.Lap();
     }
     const int made = TriangulateTracks(bo, f.tracks, r.camera, &map);
-    bs = RunBundleAdjustment(bo, f.tracks, r.camera, &map);
+    BundleOptions round_options = bo;
+    if (round + 1 < o.bundle_rounds) {
+      round_options.function_tolerance = bo.early_round_function_tolerance;
+    }
+    bs = RunBundleAdjustment(round_options, f.tracks, r.camera, &map);
     spdlog::info("track: bundle adjustment {}/{}: {} (+{} points)", round + 1, o.bundle_rounds,
                  bs.BriefReport(), made);
     rounds.push_back(bs.BriefReport());
