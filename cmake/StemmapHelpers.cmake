@@ -6,6 +6,12 @@ function(stemmap_library name)
   target_link_libraries(stemmap_${name} PUBLIC ${ARG_DEPS})
 endfunction()
 
+# Tests write their scratch files under the build folder (TMPDIR, which std::filesystem's
+# temp_directory_path() and GoogleTest's TempDir() follow), not into the system's /tmp: a run
+# leaves nothing behind outside it, and two build folders never share a file.
+set(STEMMAP_TEST_TMPDIR "${CMAKE_BINARY_DIR}/test_tmp")
+file(MAKE_DIRECTORY "${STEMMAP_TEST_TMPDIR}")
+
 # stemmap_test(NAME SOURCES ... DEPS ...): a GoogleTest binary found by ctest.
 function(stemmap_test name)
   if(NOT STEMMAP_BUILD_TESTS)
@@ -14,6 +20,10 @@ function(stemmap_test name)
   cmake_parse_arguments(ARG "" "" "SOURCES;DEPS;LABELS" ${ARGN})
   add_executable(${name} ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
-  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60
-                       PROPERTIES LABELS "${ARG_LABELS}")
+  # An empty value would drop out of the list and pair the next property's name with nothing.
+  set(properties ENVIRONMENT "TMPDIR=${STEMMAP_TEST_TMPDIR}")
+  if(ARG_LABELS)
+    list(APPEND properties LABELS "${ARG_LABELS}")
+  endif()
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES ${properties})
 endfunction()
