@@ -29,6 +29,14 @@ void CalibrateOptions::Check() const {
   if (scan_frames < max_views) throw InputError("scan frames must be at least max views");
 }
 
+LensKind ParseLensKind(const std::string& name) {
+  if (name == "main") return LensKind::kMain;
+  if (name == "wide") return LensKind::kWide;
+  throw InputError(fmt::format("unknown lens '{}': use main or wide", name));
+}
+
+std::string ToString(LensKind lens) { return lens == LensKind::kWide ? "wide" : "main"; }
+
 std::string CalibrateSummary::BriefReport() const {
   const std::string k3 = camera.k3 != 0.0 ? fmt::format(" k3 {:+.4f}", camera.k3) : "";
   return fmt::format(
@@ -94,10 +102,10 @@ CalibrateSummary RunCalibrate(const CalibrateOptions& o, const std::filesystem::
   std::vector<std::vector<cv::Point3f>> object_points(used.size(), board);
   cv::Mat k = cv::Mat::eye(3, 3, CV_64F), d = cv::Mat::zeros(5, 1, CV_64F);
   std::vector<cv::Mat> rvecs, tvecs;
-  // k3 stays 0: a board filmed at arm's length rarely reaches the corners of a main camera's
-  // field, where k3 would be fitted to noise. A file written elsewhere may carry one (d[4]).
+  // k3 stays 0 for a main camera (LensKind). A file written elsewhere may carry one (d[4]).
+  const int k3_flag = o.lens == LensKind::kWide ? 0 : cv::CALIB_FIX_K3;
   const double rms = cv::calibrateCamera(object_points, used, size, k, d, rvecs, tvecs,
-                                         cv::CALIB_FIX_K3 | cv::CALIB_ZERO_TANGENT_DIST);
+                                         k3_flag | cv::CALIB_ZERO_TANGENT_DIST);
   CalibrateSummary s;
   s.views = static_cast<int>(used.size());
   s.rms_px = rms;

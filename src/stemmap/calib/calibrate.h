@@ -9,12 +9,20 @@ namespace stemmap::calib {
 
 // `stemmap calibrate`: intrinsics from a video of a printed checkerboard, filmed with the same
 // phone and video mode as the plots (the field of view changes between modes).
+// How much of the distortion model a lens needs. A main camera keeps a residue that k1 and k2
+// describe; k3 would be fitted to noise, since a board held at arm's length rarely reaches the
+// image's corners. A wide lens (about 100°) bends most toward them, and needs k3 as well.
+enum class LensKind { kMain, kWide };
+LensKind ParseLensKind(const std::string& name);  // "main" or "wide"; InputError otherwise
+std::string ToString(LensKind lens);
+
 struct CalibrateOptions {
   int inner_cols = 9;  // inner corners along the board's long side
   int inner_rows = 6;  // and along its short side
   double square_m = 0.025;
   int max_views = 40;     // board views used, spread over the video
   int scan_frames = 200;  // frames searched for the board, spread over the video
+  LensKind lens = LensKind::kMain;
   void Check() const;
 };
 

@@ -90,6 +90,10 @@ void AddSimulateCommand(CLI::App& app) {
                   "Plot id in the layout's id/plot column (default: the first)");
   sub->add_option("--stills", opt->stills, "PNG frames to write to OUT/stills")
       ->capture_default_str();
+  sub->add_flag("--checkerboard", opt->checkerboard,
+                "Instead of the plot, a video of a printed 9x6 checkerboard with 25-mm squares "
+                "held before the same camera (the seed's and --phone's lens), for `stemmap "
+                "calibrate`; its camera is in OUT/board_truth.json");
   sub->add_flag("--truth-only", opt->truth_only,
                 "Write truth.json and trajectory_truth.tum without rendering the video");
   sub->callback([sub, opt, kind, phone] {
@@ -113,6 +117,12 @@ void AddSimulateCommand(CLI::App& app) {
     keep_phone("--stabilisation", &sim::PhoneOptions::stabilisation);
     keep_phone("--wind", &sim::PhoneOptions::wind);
     const sim::SimulateSummary s = sim::RunSimulate(*opt);
+    if (opt->checkerboard) {
+      fmt::print(
+          "simulate: checkerboard video, {} views ({:.1f} s), rendered in {:.1f} s\nwrote {}\n",
+          s.frames, s.seconds, s.wall_s, opt->out_dir.string());
+      return;
+    }
     fmt::print("simulate: {}\nwrote {}\n", s.BriefReport(), opt->out_dir.string());
   });
 }

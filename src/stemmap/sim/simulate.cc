@@ -21,6 +21,7 @@
 #include "stemmap/core/progress.h"
 #include "stemmap/core/rng.h"
 #include "stemmap/core/units.h"
+#include "stemmap/sim/board.h"
 #include "stemmap/sim/render.h"
 #include "stemmap/sim/rig.h"
 #include "stemmap/sim/sensor.h"
@@ -109,6 +110,9 @@ void SimulateOptions::Check() const {
   // The lens must show its field without folding over (the widest drawn one when none is given).
   PinholeCamera::FromLensHfov(width, height, hfov_deg > 0 ? hfov_deg : 75.0, k1, k2, k3).Check();
   if (stills < 0 || stills > 20) throw InputError("stills must be in [0, 20]");
+  if (checkerboard && truth_only) {
+    throw InputError("--checkerboard renders the board video; --truth-only renders nothing");
+  }
   if (!std::isfinite(start_deg)) throw InputError("--start-deg must be a number of degrees");
   // The scene reaches 40 m around the stand's centre; a plot of 11 m must lie within it.
   if (!(std::hypot(centre_offset_x_m, centre_offset_y_m) <= 10.0)) {
@@ -142,9 +146,38 @@ void to_json(nlohmann::json& j, const SimulateOptions& o) {
        {"layout_plot", o.layout_plot},
        {"stills", o.stills},
        {"truth_only", o.truth_only},
+       {"checkerboard", o.checkerboard},
        {"start_deg", o.start_deg},
        {"centre_offset_m", {o.centre_offset_x_m, o.centre_offset_y_m}}};
 }
+
+namespace {
+
+// The board video of the plot's camera (rolling shutter, breathing and stabilisation left out: a
+// board held still before a phone whose settings the README fixes), and its camera as truth.
+SimulateSummary WriteCheckerboard(const SimulateOptions& o, const PinholeCamera& camera,
+                                  std::chrono::steady_clock::time_point start) {
+  std::filesystem::create_directories(o.out_dir);
+  const BoardVideoOptions board;
+  const double bitrate_mbps =
+      o.bitrate_mbps > 0 ? o.bitrate_mbps : 17.0 * (o.width * o.height) / (1920.0 * 1080.0);
+  WriteBoardVideo(board, camera, o.seed, bitrate_mbps, o.out_dir / "video.mp4");
+  nlohmann::json truth = {{"format", "stemmap-board-truth-1"},
+                          {"seed", o.seed},
+                          {"intrinsics", camera},
+                          {"inner_corners", {board.inner_cols, board.inner_rows}},
+                          {"square_m", board.square_m},
+                          {"views", board.views},
+                          {"fps", board.fps}};
+  WriteJsonAtomic(o.out_dir / "board_truth.json", truth);
+  SimulateSummary summary;
+  summary.frames = board.views;
+  summary.seconds = board.views / board.fps;
+  summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return summary;
+}
+
+}  // namespace
 
 SimulateSummary RunSimulate(const SimulateOptions& o) {
   o.Check();
@@ -168,6 +201,7 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
     camera.fy *= phone.stabilisation_crop;
   }
   camera.Check();
+  if (o.checkerboard) return WriteCheckerboard(o, camera, start);
 
   RigParams rig;
   rig.arm_radius_m = o.arm_radius_m;

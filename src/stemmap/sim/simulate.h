@@ -36,6 +36,9 @@ struct SimulateOptions {
   double start_deg = 0.0;
   double centre_offset_x_m = 0.0, centre_offset_y_m = 0.0;
   bool truth_only = false;  // write the truth and trajectory, render nothing
+  // Instead of the plot, a video of a printed 9x6 checkerboard (25-mm squares) held before the
+  // same camera (the seed's lens), for `stemmap calibrate`; its truth is board_truth.json.
+  bool checkerboard = false;
   void Check() const;
 };
 
