@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Real-phone camera effects against the ideal camera, on the same plots: each plot is rendered
 # with the ideal camera, with each effect of the `main` phone preset alone (rolling shutter,
-# residual distortion, focus breathing, wind), with the whole preset, and with the preset and
-# in-camera stabilisation; every render goes through `process` with the truth's calibration (the
-# lens as a calibration gives it), the measured camera height and, for the rolling shutter, the
+# residual distortion, focus breathing, wind), with the whole preset, with the preset and
+# in-camera stabilisation, and with the `wide` preset (100°); every render goes through `process`
+# with the truth's calibration (the lens as a calibration gives it; for `wide`, what `stemmap
+# calibrate --lens wide` makes of the simulated board video of its lens), the measured camera height and, for the rolling shutter, the
 # preset's readout (`--readout-ms`). Reports per plot and variant recall, precision, DBH MAE and
 # bias, position RMSE and the camera-up error, and the pooled figures per variant.
 # Usage: bench/phone.sh [BUILD_DIR] [DATA_DIR]
@@ -24,6 +25,7 @@ variants=(
   "wind:--wind 0.5:"
   "main:--phone main:--readout-ms 25"
   "main-stabilised:--phone main --stabilisation:--readout-ms 25"
+  "wide:--phone wide:--readout-ms 30"
 )
 
 rows="$data/phone_rows.txt"
@@ -39,10 +41,22 @@ for kind in $kinds; do
           --height "$height" --fps "$fps" --stills 0 $sim_flags --out "$dir" > "$dir.simulate.log" 2>&1
       fi
       # The phone's calibration, as `stemmap calibrate` gives it with stabilisation off (as the
-      # README says to calibrate): the stabilised video's crop is not in it.
+      # README says to calibrate): the stabilised video's crop is not in it. The wide lens is
+      # calibrated by `stemmap calibrate --lens wide` from the simulated board video of its lens.
       calib_from="$dir/truth.json"
       case "$name" in *-stabilised) calib_from="$data/$kind-$seed/main/truth.json" ;; esac
-      python3 "$here/truth_calibration.py" "$calib_from" "$dir/calibration.yaml"
+      if [ "$name" = wide ]; then
+        board="$dir/board"
+        if [ ! -f "$board/calibration.yaml" ]; then
+          "$bin" --log-level warn simulate --checkerboard --phone wide --seed "$seed" \
+            --width "$width" --height "$height" --out "$board" > "$dir.board.log" 2>&1
+          "$bin" --log-level warn calibrate "$board/video.mp4" --lens wide \
+            --out "$board/calibration.yaml" >> "$dir.board.log" 2>&1
+        fi
+        cp "$board/calibration.yaml" "$dir/calibration.yaml"
+      else
+        python3 "$here/truth_calibration.py" "$calib_from" "$dir/calibration.yaml"
+      fi"
       if [ ! -f "$dir/run/trees.csv" ]; then
         height_m=$(python3 -c "import json;print(json.load(open('$dir/truth.json'))['camera_height_m'])")
         "$bin" --log-level info process "$dir/video.mp4" --arm-radius 1.0 \
