@@ -165,9 +165,9 @@ TEST(PlotIo, TreesCsvErrorsAreClear) {
 TEST(PlotIo, TruthFilesOfTheWrongShapeAreInputErrors) {
   const auto dir = std::filesystem::temp_directory_path() / "stemmap_eval_test";
   const std::string trees = R"("trees": [{"id": 2, "x_m": -8.0, "y_m": 3.0, "dbh_cm": 12.0}])";
-  for (const std::string& poses : {R"([{"t_s": 0.0, "t_xyz": [1, 0, 0.3], "q_xyzw": [0, 0]}])",
-                                   R"([{"t_s": 0.0, "t_xyz": [1], "q_xyzw": [0, 0, 0, 1]}])",
-                                   R"([{"t_s": 0.0}])", R"({"t_s": "now"})"}) {
+  for (const char* poses : {R"([{"t_s": 0.0, "t_xyz": [1, 0, 0.3], "q_xyzw": [0, 0]}])",
+                            R"([{"t_s": 0.0, "t_xyz": [1], "q_xyzw": [0, 0, 0, 1]}])",
+                            R"([{"t_s": 0.0}])", R"({"t_s": "now"})"}) {
     WriteFileAtomic(dir / "truth.json", "{" + trees + R"(, "poses": )" + poses + "}");
     EXPECT_THROW(ReadTruthJson(dir / "truth.json"), InputError) << poses;
   }
