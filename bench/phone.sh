@@ -56,7 +56,7 @@ for kind in $kinds; do
         cp "$board/calibration.yaml" "$dir/calibration.yaml"
       else
         python3 "$here/truth_calibration.py" "$calib_from" "$dir/calibration.yaml"
-      fi"
+      fi
       if [ ! -f "$dir/run/trees.csv" ]; then
         height_m=$(python3 -c "import json;print(json.load(open('$dir/truth.json'))['camera_height_m'])")
         "$bin" --log-level info process "$dir/video.mp4" --arm-radius 1.0 \
