@@ -58,7 +58,13 @@ double ReprojectionErrorPx(const SparseMap& map, const PinholeCamera& camera, in
   const Eigen::Vector3d p = map.cam_from_world[kf] * (x - map.centre_world[kf]);
   if (p.z() <= 1e-6) return 1e9;
   const Eigen::Vector3d ray = camera.CamRayFromImage(px);
-  return camera.fx * (map.focal_scale * p.head<2>() / p.z() - ray.head<2>()).norm();
+  if (!camera.HasDistortion()) {
+    return camera.fx * (map.focal_scale * p.head<2>() / p.z() - ray.head<2>()).norm();
+  }
+  // As the bundle adjustment's residual: the focal scale applies to what the lens gives.
+  const RadialLens lens{camera.k1, camera.k2, camera.k3};
+  return camera.fx *
+         (map.focal_scale * lens.Distort(p.head<2>() / p.z()) - lens.Distort(ray.head<2>())).norm();
 }
 
 namespace {
@@ -66,6 +72,11 @@ namespace {
 // Camera ray through a pixel under the map's focal scale.
 Eigen::Vector3d RayOf(const SparseMap& map, const PinholeCamera& camera,
                       const Eigen::Vector2d& px) {
+  if (camera.HasDistortion()) {
+    // The focal scale applies to what the lens gives (ReprojectionError).
+    return camera.UndistortedRay((px.x() - camera.cx) / (camera.fx * map.focal_scale),
+                                 (px.y() - camera.cy) / (camera.fy * map.focal_scale));
+  }
   Eigen::Vector3d ray = camera.CamRayFromImage(px);
   ray.head<2>() /= map.focal_scale;
   return ray;
@@ -205,12 +216,13 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
   ceres::LossFunction* reprojection_loss = new ceres::HuberLoss(o.loss_px);
   ceres::LossFunction* prior_loss = new ceres::HuberLoss(3.0);
   std::vector<char> kf_used(n_kf, 0);
+  const RadialLens lens{camera.k1, camera.k2, camera.k3};
   for (int t : ids) {
     for (size_t k = 0; k < tracks[t].obs.size(); ++k) {
       if (!map->obs_valid[t][k]) continue;
       const Observation& ob = tracks[t].obs[k];
       const Eigen::Vector3d ray = camera.CamRayFromImage(ob.px);
-      problem.AddResidualBlock(PoseReprojectionCost::Create(ray.head<2>(), camera.fx),
+      problem.AddResidualBlock(PoseReprojectionCost::Create(ray.head<2>(), camera.fx, lens),
                                reprojection_loss, cams.pose(ob.keyframe),
                                map->point_world[t].data(), cams.focal());
       kf_used[ob.keyframe] = 1;

@@ -86,8 +86,9 @@ Resected Resect(const FramePoseOptions& o, const BundleOptions& bo, const FrameO
   for (size_t i = 0; i < b.track.size(); ++i) {
     if (!map.point_valid[b.track[i]]) continue;
     const Eigen::Vector3d ray = camera.CamRayFromImage(b.px[i].cast<double>());
-    problem.AddResidualBlock(ReprojectionError::Create(ray.head<2>(), camera.fx), loss,
-                             q.coeffs().data(), c.data(), points[j].data(), &focal_scale);
+    problem.AddResidualBlock(
+        ReprojectionError::Create(ray.head<2>(), camera.fx, {camera.k1, camera.k2, camera.k3}),
+        loss, q.coeffs().data(), c.data(), points[j].data(), &focal_scale);
     problem.SetParameterBlockConstant(points[j++].data());
   }
   problem.SetParameterBlockConstant(&focal_scale);

@@ -40,11 +40,17 @@ bool Inside(const cv::Mat& img, const Eigen::Vector2d& p, double reach) {
          p.y() + reach < img.rows - 2.0;
 }
 
-// Undistorted normalised coordinates of a world point in keyframe k under the map's focal scale.
+// Pixel of a world point in keyframe k under the map's focal scale, which applies to what the
+// lens gives (ReprojectionError).
 bool Project(const SparseMap& map, const PinholeCamera& camera, int k, const Eigen::Vector3d& x,
              Eigen::Vector2d* px) {
   const Eigen::Vector3d p = map.cam_from_world[k] * (x - map.centre_world[k]);
   if (p.z() <= 1e-3) return false;
+  if (camera.HasDistortion()) {
+    const Eigen::Vector2d centre(camera.cx, camera.cy);
+    *px = centre + map.focal_scale * (camera.ImageFromCam(p) - centre);
+    return true;
+  }
   const Eigen::Vector2d n = map.focal_scale * p.head<2>() / p.z();
   *px = camera.ImageFromCam(Eigen::Vector3d(n.x(), n.y(), 1.0));
   return true;

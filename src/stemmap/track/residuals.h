@@ -12,12 +12,33 @@
 
 namespace stemmap::track {
 
-// Reprojection error in pixels of a world point X seen at normalised image point (u, v), with a
-// focal scale k (1 = the starting focal length f, refined when the field of view is a guess):
+// The lens's radial distortion on normalised coordinates (OpenCV's k1-k3):
+//   D(p) = p g(rho),   g = 1 + k1 rho + k2 rho^2 + k3 rho^3,   rho = |p|^2.
+struct RadialLens {
+  double k1 = 0.0, k2 = 0.0, k3 = 0.0;
+  bool Any() const { return k1 != 0.0 || k2 != 0.0 || k3 != 0.0; }
+  template <typename T>
+  T Factor(const T& rho) const {
+    return T(1) + rho * (T(k1) + rho * (T(k2) + rho * T(k3)));
+  }
+  // dg/drho
+  double FactorSlope(double rho) const { return k1 + rho * (2.0 * k2 + rho * 3.0 * k3); }
+  Eigen::Vector2d Distort(const Eigen::Vector2d& p) const { return p * Factor(p.squaredNorm()); }
+};
+
+// Reprojection error in pixels of a world point X seen at normalised image point (u, v) (the
+// lens's distortion removed), with a focal scale k (1 = the starting focal length f, refined from
+// the closed turn):
 //   P = cam_from_world * (X - c),   r = f * (k * P.x / P.z - u, k * P.y / P.z - v).
 // f turns normalised units into pixels so robust-loss thresholds read in pixels.
+// With a distorting lens the focal length scales what the lens gives, not the undistorted ray: a
+// pixel lies at c + f k D(p), which is how the refined camera (focal f k, the same k1-k3) images
+// p afterwards. The residual is then taken there:
+//   r = f * (k D(p) - D(u, v)),   p = (P.x / P.z, P.y / P.z),
+// the same as above for a lens without distortion, for which it is left as it was.
 struct ReprojectionError {
-  ReprojectionError(const Eigen::Vector2d& uv, double focal_px) : uv_(uv), f_(focal_px) {}
+  ReprojectionError(const Eigen::Vector2d& uv, double focal_px, const RadialLens& lens = {})
+      : uv_(lens.Any() ? lens.Distort(uv) : uv), f_(focal_px), lens_(lens) {}
 
   template <typename T>
   bool operator()(const T* q_cam_from_world, const T* c_world, const T* x_world,
@@ -30,19 +51,28 @@ struct ReprojectionError {
       r[1] = T(0);
       return true;
     }
-    r[0] = T(f_) * (focal_scale[0] * p.x() / p.z() - T(uv_.x()));
-    r[1] = T(f_) * (focal_scale[0] * p.y() / p.z() - T(uv_.y()));
+    if (!lens_.Any()) {
+      r[0] = T(f_) * (focal_scale[0] * p.x() / p.z() - T(uv_.x()));
+      r[1] = T(f_) * (focal_scale[0] * p.y() / p.z() - T(uv_.y()));
+      return true;
+    }
+    const T nx = p.x() / p.z(), ny = p.y() / p.z();
+    const T g = lens_.Factor(nx * nx + ny * ny);
+    r[0] = T(f_) * (focal_scale[0] * nx * g - T(uv_.x()));
+    r[1] = T(f_) * (focal_scale[0] * ny * g - T(uv_.y()));
     return true;
   }
 
-  static ceres::CostFunction* Create(const Eigen::Vector2d& uv, double focal_px) {
+  static ceres::CostFunction* Create(const Eigen::Vector2d& uv, double focal_px,
+                                     const RadialLens& lens = {}) {
     return new ceres::AutoDiffCostFunction<ReprojectionError, 2, 4, 3, 3, 1>(
-        new ReprojectionError(uv, focal_px));
+        new ReprojectionError(uv, focal_px, lens));
   }
 
  private:
-  Eigen::Vector2d uv_;
+  Eigen::Vector2d uv_;  // the observation as the lens gives it: D(u, v)
   double f_;
+  RadialLens lens_;
 };
 
 // Soft prior that the camera centre lies on the arm circle: radius R in the plane z = 0.
@@ -117,14 +147,16 @@ struct YawGaugeError {
 // one block per keyframe halves the blocks the Schur eliminator visits and lets Ceres use its
 // (2, 3, 6) specialisation.
 struct PoseReprojectionError {
-  PoseReprojectionError(const Eigen::Vector2d& uv, double focal_px) : e_(uv, focal_px) {}
+  PoseReprojectionError(const Eigen::Vector2d& uv, double focal_px, const RadialLens& lens = {})
+      : e_(uv, focal_px, lens) {}
   template <typename T>
   bool operator()(const T* pose, const T* x_world, const T* focal_scale, T* r) const {
     return e_(pose, pose + 4, x_world, focal_scale, r);
   }
-  static ceres::CostFunction* Create(const Eigen::Vector2d& uv, double focal_px) {
+  static ceres::CostFunction* Create(const Eigen::Vector2d& uv, double focal_px,
+                                     const RadialLens& lens = {}) {
     return new ceres::AutoDiffCostFunction<PoseReprojectionError, 2, 7, 3, 1>(
-        new PoseReprojectionError(uv, focal_px));
+        new PoseReprojectionError(uv, focal_px, lens));
   }
 
  private:
@@ -142,20 +174,25 @@ struct PoseReprojectionError {
 // The projection r = f (k P.x / P.z - u0, k P.y / P.z - v0) has
 //   dr/dP = f k [1/P.z, 0, -P.x/P.z^2; 0, 1/P.z, -P.y/P.z^2],   dr/dk = f (P.x/P.z, P.y/P.z),
 // and behind the camera r = (-100 f (P.z - 1e-6), 0), so dr/dP = (0, 0, -100 f; 0, 0, 0).
+// With a distorting lens, r = f (k D(p) - D(u, v)) with p = (P.x / P.z, P.y / P.z) has
+//   dr/dP = f k J_D dp/dP,   J_D = g I + 2 g'(rho) p p^T,   dr/dk = f D(p).
 class PoseReprojectionCost : public ceres::SizedCostFunction<2, 7, 3, 1> {
  public:
-  PoseReprojectionCost(const Eigen::Vector2d& uv, double focal_px) : uv_(uv), f_(focal_px) {}
+  PoseReprojectionCost(const Eigen::Vector2d& uv, double focal_px, const RadialLens& lens = {})
+      : uv_(lens.Any() ? lens.Distort(uv) : uv), f_(focal_px), lens_(lens) {}
 
   bool Evaluate(double const* const* parameters, double* residuals,
                 double** jacobians) const override;
 
-  static ceres::CostFunction* Create(const Eigen::Vector2d& uv, double focal_px) {
-    return new PoseReprojectionCost(uv, focal_px);
+  static ceres::CostFunction* Create(const Eigen::Vector2d& uv, double focal_px,
+                                     const RadialLens& lens = {}) {
+    return new PoseReprojectionCost(uv, focal_px, lens);
   }
 
  private:
-  Eigen::Vector2d uv_;
+  Eigen::Vector2d uv_;  // the observation as the lens gives it: D(u, v)
   double f_;
+  RadialLens lens_;
 };
 
 struct PoseCirclePriorError {

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <memory>
 
+#include "stemmap/camera/camera.h"
+
 namespace stemmap::track {
 namespace {
 
@@ -124,11 +126,48 @@ TEST(Residuals, PoseBlockAdaptersMatchTheSplitResiduals) {
 // The hand-written derivatives against automatic differentiation of the same residual, for
 // poses around the circle, a quaternion a little off unit length (as between manifold steps),
 // and a point behind the camera.
+void ExpectAnalyticReprojectionMatchesAutomatic(const RadialLens& lens);
+
+// With and without a distorting lens (the `wide` preset's).
 TEST(Residuals, AnalyticReprojectionMatchesAutomatic) {
+  for (const RadialLens& lens : {RadialLens{}, RadialLens{-0.25, 0.07, -0.008}}) {
+    SCOPED_TRACE(lens.k1);
+    ExpectAnalyticReprojectionMatchesAutomatic(lens);
+  }
+}
+
+// A lens's distortion does not scale with the focal length: the residual vanishes where the
+// camera of focal length f k (the same k1-k3) images the point, which scaling the undistorted
+// ray would miss by pixels near the edge of a wide lens.
+TEST(Residuals, TheFocalScaleAppliesToWhatTheLensGives) {
+  const PinholeCamera camera = PinholeCamera::FromLensHfov(960, 540, 100.0, -0.25, 0.07, -0.008);
+  const double k = 1.007;  // focus breathing
+  PinholeCamera refined = camera;
+  refined.fx *= k;
+  refined.fy *= k;
+  const Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  const Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  const RadialLens lens{camera.k1, camera.k2, camera.k3};
+  double largest_pinhole_px = 0.0;
+  for (const Eigen::Vector3d& x : {Eigen::Vector3d(0.0, 0.0, 5.0), Eigen::Vector3d(3.0, 1.0, 5.0),
+                                   Eigen::Vector3d(-4.5, -1.5, 4.0)}) {
+    const Eigen::Vector2d px = refined.ImageFromCam(x);
+    const Eigen::Vector2d uv = camera.CamRayFromImage(px).head<2>();
+    double r[2];
+    ReprojectionError(uv, camera.fx, lens)(q.coeffs().data(), c.data(), x.data(), &k, r);
+    EXPECT_NEAR(r[0], 0.0, 1e-6);
+    EXPECT_NEAR(r[1], 0.0, 1e-6);
+    ReprojectionError(uv, camera.fx)(q.coeffs().data(), c.data(), x.data(), &k, r);
+    largest_pinhole_px = std::max(largest_pinhole_px, std::hypot(r[0], r[1]));
+  }
+  EXPECT_GT(largest_pinhole_px, 1.0);
+}
+
+void ExpectAnalyticReprojectionMatchesAutomatic(const RadialLens& lens) {
   const Eigen::Vector2d uv(0.1, -0.05);
   ceres::AutoDiffCostFunction<PoseReprojectionError, 2, 7, 3, 1> automatic(
-      new PoseReprojectionError(uv, 800.0));
-  PoseReprojectionCost analytic(uv, 800.0);
+      new PoseReprojectionError(uv, 800.0, lens));
+  PoseReprojectionCost analytic(uv, 800.0, lens);
   int behind = 0;
   struct Case {
     double angle, norm;
