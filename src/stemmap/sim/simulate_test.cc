@@ -122,5 +122,20 @@ TEST(Simulate, RefusesACentreOffTheStand) {
   EXPECT_THROW(o.Check(), InputError);
 }
 
+// A board video has no plot truth to write alone.
+TEST(Simulate, RefusesABoardVideoWithTruthOnly) {
+  SimulateOptions o;
+  o.out_dir = fs::path(::testing::TempDir()) / "stemmap_simulate_board";
+  o.checkerboard = true;
+  EXPECT_NO_THROW(o.Check());
+  o.truth_only = true;
+  try {
+    o.Check();
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("--checkerboard"), std::string::npos) << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace stemmap::sim
