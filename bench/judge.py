@@ -12,7 +12,8 @@ all plots:
 - the share of DBH errors within +-2 dbh_sd_cm (overall and by flag), and of listed stems that are
   stems at each confidence;
 - how often the truth's stems/ha, basal area/ha and QMD (DBH >= min_dbh, within the plot radius)
-  fall inside the reported 95 % intervals.
+  fall inside the reported 95 % intervals;
+- the local ground under each matched stem against the truth's (rms, and the share within 5 cm).
 """
 import argparse, csv, json, math, os, subprocess, sys
 
@@ -67,6 +68,11 @@ def main():
         t = json.load(open(f"{d}/truth.json"))
         pred = {int(r["tree_id"]): r for r in csv.DictReader(open(f"{run}/trees.csv"))}
         plot_summary = json.load(open(f"{run}/summary.json"))["plot"]
+        # Both lists give the breast-height point: its height less the breast height is the ground.
+        opts_path = f"{run}/process_options.json"
+        breast_m = (json.load(open(opts_path))["measure"]["stems"]["breast_height_m"]
+                    if os.path.exists(opts_path) else 1.37)
+        truth_by_id = {x["id"]: x for x in t["trees"]}
         matched_truth = {p["truth_id"] for p in e["pairs"]}
         for k in (kind, "all"):
             s = pooled.setdefault(k, {"plots": 0, "truth": 0, "pred": 0, "pairs": [], "half": [0, 0],
@@ -76,6 +82,9 @@ def main():
             s["pred"] += e["n_predicted"]
             for p in e["pairs"]:
                 s["pairs"].append((p, pred[p["predicted_id"]]))
+                s.setdefault("ground", []).append(
+                    float(pred[p["predicted_id"]]["z_m"]) - breast_m -
+                    (truth_by_id[p["truth_id"]]["z_m"] - t["breast_height_m"]))
             for tree in t["trees"]:
                 if tree["dbh_cm"] < 10 or math.hypot(tree["x_m"], tree["y_m"]) > 10:
                     continue
@@ -99,8 +108,8 @@ def main():
             for i, key in enumerate(("stems_per_ha_95", "basal_area_m2_per_ha_95", "qmd_cm_95")):
                 lo, hi = plot_summary[key]
                 s["figs"][i] += lo <= figs[i] <= hi
-    print("| kind | plots | recall | recall, half visible | recall, less | precision | DBH MAE (cm) | MARE (%) | position RMSE (cm) | ±2 SD coverage | truth in 95 % interval: stems/ha, BA, QMD |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| kind | plots | recall | recall, half visible | recall, less | precision | DBH MAE (cm) | MARE (%) | position RMSE (cm) | ±2 SD coverage | truth in 95 % interval: stems/ha, BA, QMD | stem ground error: rms (cm), within 5 cm |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for k in sorted(pooled, key=lambda k: (k == "all", k)):
         s = pooled[k]
         pairs = s["pairs"]
@@ -110,11 +119,15 @@ def main():
         mare = 100 * sum(abs(x) / p["truth_dbh_cm"] for x, (p, r) in zip(err, pairs)) / max(1, len(err))
         pos = 100 * math.sqrt(sum(p["position_error_m"] ** 2 for p, r in pairs) / max(1, len(pairs)))
         h, l = s["half"], s["less"]
+        g = s.get("ground", [])
+        ground_rms_cm = 100 * math.sqrt(sum(x * x for x in g) / max(1, len(g)))
+        ground_within = sum(abs(x) <= 0.05 for x in g) / max(1, len(g))
         print(f"| {k} | {s['plots']} | {len(pairs) / s['truth']:.3f} ({len(pairs)}/{s['truth']}) | "
               f"{h[1] / max(1, h[0]):.3f} ({h[1]}/{h[0]}) | {l[1] / max(1, l[0]):.3f} ({l[1]}/{l[0]}) | "
               f"{len(pairs) / max(1, s['pred']):.3f} | {mae:.2f} | {mare:.2f} | {pos:.1f} | "
               f"{within / max(1, len(pairs)):.2f} ({within}/{len(pairs)}) | "
-              f"{s['figs'][0]}, {s['figs'][1]}, {s['figs'][2]} of {s['plots']} |")
+              f"{s['figs'][0]}, {s['figs'][1]}, {s['figs'][2]} of {s['plots']} | "
+              f"{ground_rms_cm:.1f}, {ground_within:.2f} |")
     s = pooled.get("all")
     if not s:
         return

@@ -19,9 +19,15 @@ namespace {
 constexpr std::string_view kProperties =
     "property float x\nproperty float y\nproperty float z\nproperty uchar red\n"
     "property uchar green\nproperty uchar blue\nproperty float ox\nproperty float oy\n"
-    "property float oz\nproperty int keyframe\nproperty char trunk\nend_header\n";
+    "property float oz\nproperty int keyframe\nproperty char trunk\nproperty uchar "
+    "view_bottom\nend_header\n";
 constexpr std::string_view kStart = "ply\nformat binary_little_endian 1.0\nelement vertex ";
-constexpr size_t kRecordBytes = 3 * 4 + 3 + 3 * 4 + 4 + 1;
+constexpr size_t kRecordBytes = 3 * 4 + 3 + 3 * 4 + 4 + 1 + 1;
+// Clouds written before the view's bottom edge was kept: the same points without it.
+constexpr std::string_view kPropertiesWithoutViewBottom =
+    "property float x\nproperty float y\nproperty float z\nproperty uchar red\n"
+    "property uchar green\nproperty uchar blue\nproperty float ox\nproperty float oy\n"
+    "property float oz\nproperty int keyframe\nproperty char trunk\nend_header\n";
 
 }  // namespace
 
@@ -39,6 +45,7 @@ void WriteCloudPly(const std::filesystem::path& path, const std::vector<CloudPoi
     const int32_t keyframe = c.keyframe;
     std::memcpy(p + 27, &keyframe, 4);
     p[31] = static_cast<char>(c.trunk);
+    p[32] = static_cast<char>(c.at_view_bottom ? 1 : 0);
     p += kRecordBytes;
   }
   WriteFileAtomic(path, s);
@@ -60,13 +67,17 @@ std::vector<CloudPoint> ReadCloudPly(const std::filesystem::path& path) {
     if (s[i] < '0' || s[i] > '9') throw refuse("no vertex count");
     n = 10 * n + static_cast<uint64_t>(s[i] - '0');
   }
-  if (s.compare(count_end + 1, kProperties.size(), kProperties) != 0) {
+  const bool with_view_bottom = s.compare(count_end + 1, kProperties.size(), kProperties) == 0;
+  if (!with_view_bottom && s.compare(count_end + 1, kPropertiesWithoutViewBottom.size(),
+                                     kPropertiesWithoutViewBottom) != 0) {
     throw refuse("other point properties");
   }
-  const size_t header = count_end + 1 + kProperties.size();
-  if ((s.size() - header) != n * kRecordBytes) {
+  const size_t header =
+      count_end + 1 + (with_view_bottom ? kProperties.size() : kPropertiesWithoutViewBottom.size());
+  const size_t record_bytes = with_view_bottom ? kRecordBytes : kRecordBytes - 1;
+  if ((s.size() - header) != n * record_bytes) {
     throw refuse(fmt::format("{} bytes of points where {} points need {}", s.size() - header, n,
-                             n * kRecordBytes));
+                             n * record_bytes));
   }
   std::vector<CloudPoint> pts(n);
   const char* p = s.data() + header;
@@ -81,7 +92,11 @@ std::vector<CloudPoint> ReadCloudPly(const std::filesystem::path& path) {
     c.trunk = static_cast<int8_t>(p[31]);
     if (!c.world.allFinite() || !c.origin.allFinite()) throw refuse("a point that is not finite");
     if (keyframe < 0 || c.trunk < -1 || c.trunk > 1) throw refuse("a point's keyframe or label");
-    p += kRecordBytes;
+    if (with_view_bottom) {
+      if (p[32] != 0 && p[32] != 1) throw refuse("a point's view-bottom mark");
+      c.at_view_bottom = p[32] == 1;
+    }
+    p += record_bytes;
   }
   return pts;
 }

@@ -2,9 +2,11 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "stemmap/core/error.h"
 
@@ -20,6 +22,9 @@ void StereoOptions::Check() const {
     throw InputError("stereo block size must be odd, >= 3");
   if (!(min_depth_m > 0 && max_depth_m > min_depth_m)) throw InputError("bad stereo depth range");
   if (pixel_step < 1) throw InputError("pixel step must be at least 1");
+  if (!(view_bottom_share >= 0 && view_bottom_share < 1)) {
+    throw InputError("the share of the view's bottom edge must lie in [0, 1)");
+  }
 }
 
 std::vector<CloudPoint> StereoPairPoints(const StereoOptions& o, const cv::Mat& bgr_a,
@@ -70,6 +75,15 @@ std::vector<CloudPoint> StereoPairPoints(const StereoOptions& o, const cv::Mat& 
   cv::cv2eigen(r1, r1e);
   const Eigen::Matrix3d left_from_rect = r1e.transpose();
   const Eigen::Vector3f origin = world_from_left.translation.cast<float>();
+  // The lowest matched row of each column: the bottom edge of what the pair saw there.
+  std::vector<int> lowest_row(static_cast<size_t>(disp.cols), -1);
+  for (int y = 0; y < disp.rows; ++y) {
+    const float* dp = disp.ptr<float>(y);
+    for (int x = 0; x < disp.cols; ++x) {
+      if (dp[x] > 0.5f) lowest_row[x] = y;
+    }
+  }
+  const int bottom_rows = static_cast<int>(std::lround(o.view_bottom_share * disp.rows));
   std::vector<CloudPoint> out;
   for (int y = 0; y < xyz.rows; y += o.pixel_step) {
     const float* dp = disp.ptr<float>(y);
@@ -85,7 +99,8 @@ std::vector<CloudPoint> StereoPairPoints(const StereoOptions& o, const cv::Mat& 
         to = beyond;
       }
       const Eigen::Vector3d p_world = world_from_left * (left_from_rect * p_rect);
-      to->push_back({p_world.cast<float>(), origin, cp[x], keyframe_a});
+      to->push_back(
+          {p_world.cast<float>(), origin, cp[x], keyframe_a, -1, y >= lowest_row[x] - bottom_rows});
     }
   }
   return out;

@@ -22,13 +22,17 @@ struct StereoOptions {
   double min_depth_m = 0.8;
   double max_depth_m = 14.0;
   int pixel_step = 2;  // keep every n-th pixel of the depth map
+  // Points within this share of the image's height of the lowest row the pair matched in their
+  // column are marked CloudPoint::at_view_bottom: the frame's bottom edge cut the view there.
+  double view_bottom_share = 0.04;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(StereoOptions, scale, num_disparities, block_size,
                                                 uniqueness_ratio, speckle_window, speckle_range,
-                                                min_depth_m, max_depth_m, pixel_step)
+                                                min_depth_m, max_depth_m, pixel_step,
+                                                view_bottom_share)
 
 // A fused point that remembers where it was seen from: the camera centre gives its ray, so free
 // space between the camera and the point can veto a false stem.
@@ -38,6 +42,9 @@ struct CloudPoint {
   cv::Vec3b bgr;
   int keyframe = 0;
   int8_t trunk = -1;  // learned trunk mask: 1 on a stem, 0 not, -1 no mask
+  // Seen at the bottom edge of its pair's view: what lies below it there went unseen (within
+  // ~4 m of the tripod the camera sees no ground; the lowest bark it shows is no ground).
+  bool at_view_bottom = false;
 };
 
 // Depth points of one pair, in the world frame of the poses. `cam` is the images' camera.

@@ -25,25 +25,53 @@ void GroundOptions::Check() const {
     throw InputError("the ground filter's rise and slope must not be negative");
   }
   if (!(fill_radius_m >= 0)) throw InputError("the ground fill radius must not be negative");
+  if (!(max_floor_at_view_bottom >= 0 && max_floor_at_view_bottom <= 1)) {
+    throw InputError("the share of a cell's floor cut off by the frame must lie in [0, 1]");
+  }
+  if (min_rays_under_floor < 0 || !(max_pass_under_floor_m >= 0) || !(pass_end_clearance_m >= 0)) {
+    throw InputError(
+        "the rays under a ground cell's floor: count, depth and clearance must not be "
+        "negative");
+  }
 }
 
 namespace {
 
 constexpr float kMissing = std::numeric_limits<float>::quiet_NaN();
 
+// A point's height, and whether the frame's bottom edge cut the view at it.
+struct CellPoint {
+  float z;
+  bool at_view_bottom;
+  bool operator<(const CellPoint& other) const { return z < other.z; }
+};
+
 // The floor (lowest layer with enough points) of one cell's heights, sorted in place, and the
-// median of its ground layer; false when no layer holds enough.
-bool CellGround(const GroundOptions& o, std::vector<float>* zs, float* floor, float* ground) {
+// median of its ground layer; false when no layer holds enough, or when the frame's edge cut off
+// most views of it (the ground may lie lower).
+bool CellGround(const GroundOptions& o, std::vector<CellPoint>* zs, float* floor, float* ground) {
   std::sort(zs->begin(), zs->end());
   const size_t need = static_cast<size_t>(o.floor_min_points);
   // The first point whose layer [z, z + floor_bin_m] holds `need` points.
   for (size_t i = 0; i + need <= zs->size(); ++i) {
-    if ((*zs)[i + need - 1] - (*zs)[i] > o.floor_bin_m) continue;
-    *floor = (*zs)[i];
+    if ((*zs)[i + need - 1].z - (*zs)[i].z > o.floor_bin_m) continue;
+    *floor = (*zs)[i].z;
     const auto bottom = zs->begin() + static_cast<std::ptrdiff_t>(i);
-    const auto top = std::upper_bound(bottom, zs->end(), *floor + o.ground_layer_m);
-    *ground = *(bottom + (top - bottom) / 2);
-    return true;
+    const auto top = std::upper_bound(
+        bottom, zs->end(), CellPoint{*floor + static_cast<float>(o.ground_layer_m), false});
+    *ground = (bottom + (top - bottom) / 2)->z;
+    // The floor itself (not the layer above it, where far views see bark past the shrubs that
+    // hid its foot from them) decides whether the view ended there.
+    const auto floor_top = std::upper_bound(
+        bottom, zs->end(), CellPoint{*floor + static_cast<float>(o.floor_bin_m), false});
+    const auto cut =
+        std::count_if(bottom, floor_top, [](const CellPoint& p) { return p.at_view_bottom; });
+    if (static_cast<double>(cut) <=
+        o.max_floor_at_view_bottom * static_cast<double>(floor_top - bottom)) {
+      return true;
+    }
+    *floor = *ground = kMissing;
+    return false;
   }
   return false;
 }
@@ -71,12 +99,12 @@ GroundGrid::GroundGrid(const std::vector<dense::CloudPoint>& points, double radi
     : o_(o), origin_(-radius_m) {
   o.Check();
   n_ = static_cast<int>(std::ceil(2 * radius_m / o.cell_m));
-  std::vector<std::vector<float>> zs(static_cast<size_t>(n_) * n_);
+  std::vector<std::vector<CellPoint>> zs(static_cast<size_t>(n_) * n_);
   for (const dense::CloudPoint& p : points) {
     const int i = static_cast<int>(std::floor((p.world.x() - origin_) / o.cell_m));
     const int j = static_cast<int>(std::floor((p.world.y() - origin_) / o.cell_m));
     if (i < 0 || j < 0 || i >= n_ || j >= n_) continue;
-    zs[static_cast<size_t>(j) * n_ + i].push_back(p.world.z());
+    zs[static_cast<size_t>(j) * n_ + i].push_back({p.world.z(), p.at_view_bottom});
   }
   std::vector<float> floors(zs.size(), kMissing);
   z_.assign(zs.size(), kMissing);
@@ -89,7 +117,59 @@ GroundGrid::GroundGrid(const std::vector<dense::CloudPoint>& points, double radi
     n_ = 0;
     return;
   }
+  DropFloorsSeenUnder(points, &floors);
   FillFromGroundCells(FilterGround(floors));
+}
+
+void GroundGrid::DropFloorsSeenUnder(const std::vector<dense::CloudPoint>& points,
+                                     std::vector<float>* floors) {
+  if (o_.min_rays_under_floor <= 0) return;
+  std::vector<int> under(floors->size(), 0);
+  const double inv_cell = 1.0 / o_.cell_m;
+  for (const dense::CloudPoint& p : points) {
+    // The ray in cell units, up to pass_end_clearance_m short of its end (depth noise puts a
+    // point past the surface it lies on).
+    const Eigen::Vector2d a((p.origin.x() - origin_) * inv_cell,
+                            (p.origin.y() - origin_) * inv_cell);
+    const Eigen::Vector2d b((p.world.x() - origin_) * inv_cell, (p.world.y() - origin_) * inv_cell);
+    const double length_m = (p.world - p.origin).norm();
+    if (!(length_m > o_.pass_end_clearance_m)) continue;
+    const double t_end = 1.0 - o_.pass_end_clearance_m / length_m;
+    const Eigen::Vector2d d = b - a;
+    int i = static_cast<int>(std::floor(a.x())), j = static_cast<int>(std::floor(a.y()));
+    const int step_i = d.x() > 0 ? 1 : -1, step_j = d.y() > 0 ? 1 : -1;
+    // Ray parameter at the next vertical and horizontal cell border, and between borders.
+    const double dt_i = d.x() != 0 ? std::abs(1.0 / d.x()) : HUGE_VAL;
+    const double dt_j = d.y() != 0 ? std::abs(1.0 / d.y()) : HUGE_VAL;
+    double t_i = d.x() != 0 ? ((step_i > 0 ? i + 1 - a.x() : a.x() - i) * dt_i) : HUGE_VAL;
+    double t_j = d.y() != 0 ? ((step_j > 0 ? j + 1 - a.y() : a.y() - j) * dt_j) : HUGE_VAL;
+    double t_in = 0.0;
+    const double z0 = p.origin.z(), dz = p.world.z() - p.origin.z();
+    while (t_in < t_end) {
+      const double t_out = std::min({t_i, t_j, t_end});
+      if (i >= 0 && j >= 0 && i < n_ && j < n_) {
+        const size_t c = static_cast<size_t>(j) * n_ + i;
+        const double z_low = z0 + dz * (dz < 0 ? t_out : t_in);  // the ray's lowest in the cell
+        if (z_low < (*floors)[c] - o_.max_pass_under_floor_m) ++under[c];
+      }
+      if (t_out >= t_end) break;
+      if (t_i < t_j) {
+        i += step_i;
+        t_i += dt_i;
+      } else {
+        j += step_j;
+        t_j += dt_j;
+      }
+      t_in = t_out;
+    }
+  }
+  for (size_t c = 0; c < floors->size(); ++c) {
+    if (under[c] >= o_.min_rays_under_floor && !std::isnan((*floors)[c])) {
+      (*floors)[c] = kMissing;
+      z_[c] = kMissing;
+      --measured_;
+    }
+  }
 }
 
 std::vector<char> GroundGrid::FilterGround(const std::vector<float>& floors) const {

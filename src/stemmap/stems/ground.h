@@ -18,6 +18,20 @@ struct GroundOptions {
   double floor_bin_m = 0.05;
   int floor_min_points = 3;
   double ground_layer_m = 0.1;
+  // Within ~4 m of the tripod the outward-facing camera sees no ground: the lowest thing a cell
+  // shows there (a stem's bark, a shrub) is where the frame's bottom edge cut the view, and the
+  // ground lies somewhere below it. A cell whose floor (its lowest floor_bin_m) holds more than
+  // this share of points seen at their view's bottom edge (CloudPoint::at_view_bottom) is not
+  // measured: its ground comes from the ground cells around it.
+  double max_floor_at_view_bottom = 0.5;
+  // A cell under whose floor at least min_rays_under_floor rays passed, more than
+  // max_pass_under_floor_m below it, on to what lies beyond (short of the last
+  // pass_end_clearance_m of each, where depth noise puts points past their surface), is not
+  // measured either: the camera saw under what it shows there (a shrub's leaves, a sapling's
+  // crown), so the ground lies lower still. 0 rays: no such test.
+  int min_rays_under_floor = 3;
+  double max_pass_under_floor_m = 0.1;
+  double pass_end_clearance_m = 0.5;
   // Morphological ground filter (progressive opening): windows of these diameters (m), growing;
   // a cell standing more than min_rise_m + max_slope times the window's radius above the opened
   // surface is something on the ground (shrub, sapling crown, dead wood, a stem's part), not it.
@@ -35,8 +49,10 @@ struct GroundOptions {
   void Check() const;
 };
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(GroundOptions, cell_m, min_cell_points, floor_bin_m,
-                                                floor_min_points, ground_layer_m, windows_m,
-                                                min_rise_m, max_slope, fill_radius_m,
+                                                floor_min_points, ground_layer_m,
+                                                max_floor_at_view_bottom, min_rays_under_floor,
+                                                max_pass_under_floor_m, pass_end_clearance_m,
+                                                windows_m, min_rise_m, max_slope, fill_radius_m,
                                                 axis_plane_radius_m)
 
 // Terrain under the plot: a grid of ground heights from each cell's floor, with what stands on
@@ -66,6 +82,9 @@ class GroundGrid {
   int ground_cells() const { return ground_; }      // of which on the ground
 
  private:
+  // Marks the cells the camera saw under (GroundOptions::min_rays_under_floor) not measured.
+  void DropFloorsSeenUnder(const std::vector<dense::CloudPoint>& points,
+                           std::vector<float>* floors);
   // The ground flag of each measured cell from the floors (NaN: not measured).
   std::vector<char> FilterGround(const std::vector<float>& floors) const;
   void KeepTheLargestGroundPatch(const std::vector<float>& floors,

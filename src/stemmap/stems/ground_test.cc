@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -103,6 +104,96 @@ TEST(GroundGrid, TheGroundAtEachStemUnderUnderstory) {
         }
         EXPECT_LT(std::sqrt(sum_sq / stems.size()), 0.05);
       }
+    }
+  }
+}
+
+// What the outward-facing camera on the arm (radius 1 m, `camera_z` above the tripod's ground)
+// sees near the tripod: no ground within ~4.7 m (its view's bottom edge dips 20°), each near
+// stem's bark and shrub's leaves only down to where that edge cuts them, and the ground beyond;
+// what lies at the edge is marked at_view_bottom.
+std::vector<dense::CloudPoint> NearTheTripod(const Terrain& t, double camera_z, Rng* rng,
+                                             std::vector<Eigen::Vector3d>* stems) {
+  const double tan_edge = std::tan(20.0 * M_PI / 180.0), arm_m = 1.0;
+  const double eye_z = t.Height(0, 0) + camera_z;
+  // The lowest height the nearest camera sees at `r` from the centre.
+  auto lowest_seen = [&](double r) { return eye_z - (r - arm_m) * tan_edge; };
+  std::vector<dense::CloudPoint> cloud;
+  // A point seen from the camera on the arm at its azimuth; within the bottom 4 % of a 43°-high
+  // view above the lowest height that camera sees there: at its view's bottom edge.
+  auto seen = [&](double x, double y, double z) {
+    if (z < lowest_seen(std::hypot(x, y))) return;
+    const double cut = 0.03 * (std::hypot(x, y) - arm_m);
+    const double a = std::atan2(y, x);
+    cloud.push_back({Eigen::Vector3f(x, y, z),
+                     Eigen::Vector3f(arm_m * std::cos(a), arm_m * std::sin(a), eye_z),
+                     cv::Vec3b(60, 70, 80), 0});
+    cloud.back().at_view_bottom = z < lowest_seen(std::hypot(x, y)) + cut;
+  };
+  for (int i = 0; i < 150000; ++i) {
+    const double a = rng->Uniform(0, 2 * M_PI), r = std::sqrt(rng->Uniform(4, 144));
+    const double x = r * std::cos(a), y = r * std::sin(a);
+    seen(x, y, t.Height(x, y) + rng->Normal(0, 0.03));
+  }
+  for (int k = 0; k < 25; ++k) {  // shrubs 0.4-1.2 m tall
+    const double a = rng->Uniform(0, 2 * M_PI), r = rng->Uniform(1.5, 4.7);
+    const double x = r * std::cos(a), y = r * std::sin(a), radius = rng->Uniform(0.3, 0.8);
+    const double top = t.Height(x, y) + rng->Uniform(0.4, 1.2);
+    for (int i = 0; i < 2000; ++i) {
+      const double b = rng->Uniform(0, 2 * M_PI), d = radius * std::sqrt(rng->Uniform());
+      const double px = x + d * std::cos(b), py = y + d * std::sin(b);
+      seen(px, py, top - 0.8 * (top - t.Height(px, py)) * std::pow(rng->Uniform(), 2));
+    }
+  }
+  for (int k = 0; k < 12; ++k) {
+    const double a = rng->Uniform(0, 2 * M_PI), r = rng->Uniform(1.6, 5.0);
+    stems->emplace_back(r * std::cos(a), r * std::sin(a), rng->Uniform(0.05, 0.2));
+    const Eigen::Vector3d& s = stems->back();
+    const double base = t.Height(s.x(), s.y());
+    const double low = std::max(base, lowest_seen(r - s.z()));
+    for (int i = 0; i < 3000; ++i) {
+      // The half of the bark that faces the tripod.
+      const double b = std::atan2(-s.y(), -s.x()) + rng->Uniform(-M_PI / 2, M_PI / 2);
+      seen(s.x() + s.z() * std::cos(b), s.y() + s.z() * std::sin(b),
+           low + rng->Uniform(0, base + 3.0 - low));
+    }
+  }
+  return cloud;
+}
+
+// A stem within ~4.7 m of the tripod shows its bark only down to where the view's bottom edge
+// cuts it, and the shrubs about it theirs: none of that is ground, and the ground there comes
+// from the ground beyond. Over slopes (mounds and hollows farther out: those under the tripod
+// are out of sight).
+TEST(GroundGrid, TheGroundAtAStemNearTheTripodIsNotItsLowestBark) {
+  for (double slope_deg : {0.0, 4.0, 8.0}) {
+    for (uint64_t seed : {3, 4}) {
+      SCOPED_TRACE(::testing::Message() << "slope " << slope_deg << "°, seed " << seed);
+      Rng rng(seed);
+      const Terrain terrain = MakeTerrain(&rng, slope_deg, 12.0);
+      std::vector<Eigen::Vector3d> stems;
+      const std::vector<dense::CloudPoint> cloud = NearTheTripod(terrain, 1.37, &rng, &stems);
+      const GroundGrid grid(cloud, 13);
+      int cut_off = 0;
+      double sum_sq = 0.0;
+      for (const Eigen::Vector3d& s : stems) {
+        const double e = grid.Height(s.x(), s.y()) - terrain.Height(s.x(), s.y());
+        // The nearest stems lie 2-3 m from the nearest ground seen: 5-8 cm off there.
+        EXPECT_LT(std::abs(e), 0.1) << "stem at " << s.transpose();
+        sum_sq += e * e;
+        cut_off += s.head<2>().norm() < 4.0;
+      }
+      EXPECT_LT(std::sqrt(sum_sq / stems.size()), 0.05);
+      ASSERT_GE(cut_off, 3) << "the scene puts stems where the view's edge cuts their bark";
+      // Unmarked, the lowest bark would pass for ground.
+      std::vector<dense::CloudPoint> unmarked = cloud;
+      for (dense::CloudPoint& p : unmarked) p.at_view_bottom = false;
+      const GroundGrid naive(unmarked, 13);
+      double worst_m = 0.0;
+      for (const Eigen::Vector3d& s : stems) {
+        worst_m = std::max(worst_m, naive.Height(s.x(), s.y()) - terrain.Height(s.x(), s.y()));
+      }
+      EXPECT_GT(worst_m, 0.2);
     }
   }
 }
