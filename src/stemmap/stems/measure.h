@@ -55,7 +55,9 @@ struct MeasureOptions {
   // A stem of the larger cloud (vetoed by free space or not) with no part of the cloud within
   // that gap is tried last, and listed only on sharp silhouettes: both sides in at least three
   // views, on one circle to this many pixels rms (a nearer stem hides it for most of the turn;
-  // clutter's edges are not tangent to one circle to a fraction of a pixel). 0: not tried.
+  // clutter's edges are not tangent to one circle to a fraction of a pixel), or on whole ones:
+  // both sides in at least half its views, on one circle to a couple of pixels (what a part's
+  // core needs to stand alone). 0: not tried.
   double larger_cloud_only_max_rms_px = 0.5;
   // A fit over this many times the cloud's radius found silhouettes beyond anything the cloud
   // saw (a wide start that closed on a sapling and the stem behind it, or on two neighbours):

@@ -206,9 +206,11 @@ int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidate
     });
     if (taken) continue;
     RefinedStem r = refine(std::move(c));
-    spdlog::debug("stems: larger cloud's stem alone at ({:.2f}, {:.2f}): verdict {}, sharp {}",
-                  r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp);
-    if (r.verdict != SilhouetteVerdict::kUse || !r.sharp) continue;
+    spdlog::debug(
+        "stems: larger cloud's stem alone at ({:.2f}, {:.2f}): verdict {}, sharp {}, whole {}",
+        r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp, r.whole);
+    // Both sides in half the views to a couple of pixels stand as a part's core would alone.
+    if (r.verdict != SilhouetteVerdict::kUse || !(r.sharp || r.whole)) continue;
     r.stem.flags.Set(StemFlag::kSilhouetteOnly);
     occluders->emplace_back(r.stem.centre_xy.x(), r.stem.centre_xy.y(), 0.5 * r.stem.dbh_m);
     kept->push_back(std::move(r.stem));

@@ -42,6 +42,8 @@ int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems);
 struct RefinedStem {
   SilhouetteVerdict verdict = SilhouetteVerdict::kDrop;
   Stem stem;
+  // Both sides in a quarter of its views, on one circle to a couple of pixels; whole: and in
+  // half of them.
   bool clean = false;
   bool whole = false;
   // Whether the silhouettes' circle agrees with the cloud's width (within a fifth of it).
@@ -67,7 +69,8 @@ void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part,
 
 // The larger cloud's stems alone (`candidates`, nearest first), each tried where no stem of
 // `kept` stands within MeasureOptions::larger_cloud_part_gap_m of it: listed (flagged
-// silhouette_only, and added to the occluders) when `refine` uses its fit and finds it sharp.
+// silhouette_only, and added to the occluders) when `refine` uses its fit and finds it sharp
+// or whole (RefinedStem).
 // Returns how many were listed.
 int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidates,
                             const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept,

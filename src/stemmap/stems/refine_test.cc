@@ -125,6 +125,27 @@ TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
   EXPECT_TRUE(WideFitLinesUpOnBark(o, f, bark, 0.05));  // under twice the cloud's radius
 }
 
+// Sharp (both sides in three views to half a pixel) or whole (both sides in half its views, on
+// one circle to a couple of pixels, as a core must be to stand alone): listed.
+TEST(AddLargerCloudOnlyStems, ListsWholeFitsThatAreNotSharp) {
+  const MeasureOptions o;
+  std::vector<Stem> kept;
+  std::vector<Eigen::Vector3d> occluders;
+  const std::vector<Stem> candidates = {Fitted(5.24, 5.29, 0.19, 0.0),   // whole, not sharp
+                                        Fitted(-5.4, -7.5, 0.26, 0.0)};  // neither
+  const int added = AddLargerCloudOnlyStems(
+      o, candidates,
+      [&](Stem s) {
+        const bool whole = s.centre_xy.x() > 0;
+        return RefinedStem{SilhouetteVerdict::kUse, std::move(s), whole, whole, false, false};
+      },
+      &kept, &occluders);
+  EXPECT_EQ(added, 1);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].centre_xy.x(), 5.24);
+  EXPECT_EQ(kept[0].flags.Names(), std::vector<std::string_view>{"silhouette_only"});
+}
+
 TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
   const MeasureOptions o;
   std::vector<Stem> kept = {Fitted(-4.44, 1.24, 0.243, 0.0)};
