@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
+#include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
 
 namespace stemmap::dense {
@@ -83,6 +84,16 @@ TEST(StereoPairPoints, MarksTheBottomEdgeOfWhatThePairSaw) {
   EXPECT_GT(marked_low, 0.95 * marked);
   EXPECT_GT(marked, static_cast<int>(0.5 * band_px * lowest.size()));
   EXPECT_LT(marked, static_cast<int>(2.0 * (band_px + 1) * lowest.size()));
+}
+
+TEST(StereoOptions, AViewBottomShareOutsideZeroToOneIsRefused) {
+  StereoOptions o;
+  o.view_bottom_share = 1.0;
+  EXPECT_THROW(o.Check(), InputError);
+  o.view_bottom_share = -0.01;
+  EXPECT_THROW(o.Check(), InputError);
+  o.view_bottom_share = 0.0;
+  EXPECT_NO_THROW(o.Check());
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <vector>
 
+#include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
 
 namespace stemmap::stems {
@@ -220,6 +221,26 @@ TEST(GroundGrid, TheGroundUnderTheTripodFromTheGroundAround) {
       }
     }
   }
+}
+
+// The view-bottom and see-under options out of their range are input errors.
+TEST(GroundOptions, CutOffAndSeenUnderOptionsOutOfRangeAreRefused) {
+  auto refused = [](auto change) {
+    GroundOptions o;
+    change(&o);
+    try {
+      o.Check();
+    } catch (const InputError&) {
+      return true;
+    }
+    return false;
+  };
+  EXPECT_FALSE(refused([](GroundOptions*) {}));
+  EXPECT_TRUE(refused([](GroundOptions* o) { o->max_floor_at_view_bottom = 1.5; }));
+  EXPECT_TRUE(refused([](GroundOptions* o) { o->max_floor_at_view_bottom = -0.1; }));
+  EXPECT_TRUE(refused([](GroundOptions* o) { o->min_rays_under_floor = -1; }));
+  EXPECT_TRUE(refused([](GroundOptions* o) { o->max_pass_under_floor_m = -0.1; }));
+  EXPECT_TRUE(refused([](GroundOptions* o) { o->pass_end_clearance_m = -1; }));
 }
 
 }  // namespace
