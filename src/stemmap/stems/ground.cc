@@ -113,11 +113,11 @@ GroundGrid::GroundGrid(const std::vector<dense::CloudPoint>& points, double radi
     if (!CellGround(o, &zs[c], &floors[c], &z_[c])) continue;
     ++measured_;
   }
-  if (measured_ == 0) {
+  DropFloorsSeenUnder(points, &floors);
+  if (measured_ == 0) {  // nothing measured, or the camera saw under all of it
     n_ = 0;
     return;
   }
-  DropFloorsSeenUnder(points, &floors);
   FillFromGroundCells(FilterGround(floors));
 }
 
