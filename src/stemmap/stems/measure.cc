@@ -14,6 +14,7 @@ namespace stemmap::stems {
 
 void MeasureOptions::Check() const {
   stems.Check();
+  tangent.Check();
   bark_depth.Check();
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
   ground.Check();

@@ -55,6 +55,24 @@ TEST(MeasureOptions, TheLargerCloudsSettingsAreChecked) {
   EXPECT_EQ(CheckMessage(o), "the ground filter's windows must be positive and growing");
 }
 
+TEST(MeasureOptions, TheSilhouettesSettingsAreChecked) {
+  MeasureOptions o;
+  o.tangent.min_views_each_side = -1;
+  EXPECT_EQ(CheckMessage(o), "the views each side needs must not be negative");
+  o = MeasureOptions();
+  o.tangent.narrow_start_scales = {1.5};
+  EXPECT_EQ(CheckMessage(o), "the narrow starts' scales must lie in (0, 1)");
+  o = MeasureOptions();
+  o.tangent.wide_start_scales = {0.8};
+  EXPECT_EQ(CheckMessage(o), "the wide starts' scales must exceed 1");
+  o = MeasureOptions();
+  o.tangent.min_rays = 2;
+  EXPECT_EQ(CheckMessage(o), "the tangent fit needs a positive robust scale and prior, and 3 rays");
+  o = MeasureOptions();
+  o.tangent.blur_sigma_px = -1;
+  EXPECT_EQ(CheckMessage(o), "the silhouettes' blur must not be negative");
+}
+
 // A rendered scene and the cloud its keyframes' stereo would give: points on the part of each
 // stem's bark a keyframe sees (not hidden by a nearer stem) between 0.8 and 2.2 m, each with the
 // keyframe's centre as its ray origin, and flat ground at z = 0.

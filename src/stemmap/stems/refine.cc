@@ -228,8 +228,11 @@ bool StandsOnItsOwnSilhouettes(const TangentOptions& o, const TangentFit& f, dou
   // Both sides in a few views (the nearer stem hides the rest) on one circle to a couple of
   // pixels, or many silhouettes on one circle to about a pixel: the nearer stem's edges, seen
   // from along the arm, fan out behind it and stay tangent to no one circle there.
+  // Or each side in several views, on one circle to about a pixel: seen past the nearer stem
+  // from either end of the arm.
   return (f.two_sided_views >= 3 && f.rms_m < 2 * px_m) ||
-         (f.rays >= 2 * o.min_rays && f.rms_m < o.narrow_max_rms_px * px_m);
+         (f.rays >= 2 * o.min_rays && f.rms_m < o.narrow_max_rms_px * px_m) ||
+         SidesSeenApart(o, f, px_m);
 }
 
 bool InShadowOfNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& centre) {
@@ -337,17 +340,22 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == "tangent") {
       s.flags.Set(f.ok && f.two_sided_views < 3 ? StemFlag::kOneSided : StemFlag::kNoSilhouette);
     }
-    // A core stands alone only on clean silhouettes: both sides in a quarter of its views, on
-    // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges).
-    const bool clean = f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m;
-    const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
-    const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
-    const bool sharp = HasSharpSilhouettes(f, o.larger_cloud_only_max_rms_px, px_m);
     // Stereo smears a stem toward what stands behind it on the same bearing, and the smear's
     // silhouettes are the nearer stem's: a part straight behind a listed stem (its centre within
     // that stem's width seen from the plot centre) stands only on silhouettes of its own.
-    const bool own_silhouettes = StandsOnItsOwnSilhouettes(o.tangent, f, px_m);
-    if (!own_silhouettes && InShadowOfNearerStem(kept, f.ok ? f.centre : s.centre_xy)) {
+    const bool behind_nearer = InShadowOfNearerStem(kept, f.ok ? f.centre : s.centre_xy);
+    // A core stands alone only on clean silhouettes: both sides in a quarter of its views, on
+    // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges). Straight
+    // behind a nearer stem, each side in several views of its own will do (SidesSeenApart): the
+    // nearer stem hides one side from each end of the arm. Elsewhere, a stem shows both sides
+    // in the same views, and sides only ever seen apart are the edges of two things.
+    const bool clean =
+        (f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m) ||
+        (behind_nearer && SidesSeenApart(topt, f, px_m));
+    const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
+    const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
+    const bool sharp = HasSharpSilhouettes(f, o.larger_cloud_only_max_rms_px, px_m);
+    if (behind_nearer && !StandsOnItsOwnSilhouettes(o.tangent, f, px_m)) {
       spdlog::debug("stems: ({:.2f}, {:.2f}) dropped: straight behind a listed stem, no clean fit",
                     s.centre_xy.x(), s.centre_xy.y());
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};

@@ -37,12 +37,12 @@ bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth&
 // one whose fit moved farther from its points (Stem::fit_shift_m) first. Returns how many.
 int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems);
 
-// A stem as its silhouettes judged it; `clean`: both sides in a quarter of its views, on one
-// circle to a couple of pixels; `whole`: both sides in at least half of them.
+// A stem as its silhouettes judged it.
 struct RefinedStem {
   SilhouetteVerdict verdict = SilhouetteVerdict::kDrop;
   Stem stem;
-  // Both sides in a quarter of its views, on one circle to a couple of pixels; whole: and in
+  // Both sides in a quarter of its views, on one circle to a couple of pixels, or, straight
+  // behind a nearer stem, each side in views of its own (SidesSeenApart); whole: both sides in
   // half of them.
   bool clean = false;
   bool whole = false;

@@ -88,6 +88,39 @@ TEST(StandsOnItsOwnSilhouettes, TwoSidedViewsOrManyTightSilhouettes) {
   EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
 }
 
+// A stem straight behind a nearer one, seen past it from either end of the arm: its left side
+// in some views, its right side in others, never both at once, on one circle to under a pixel.
+TEST(StandsOnItsOwnSilhouettes, EachSideInViewsOfItsOwn) {
+  const TangentOptions o;
+  const double px_m = 0.006;
+  TangentFit f;
+  f.ok = true;
+  f.rms_m = 0.0045;  // 0.75 px
+  for (int k = 0; k < 10; ++k) {
+    const int side = k < 5 ? 0 : 1;
+    f.silhouettes.push_back(
+        {10 * side + k, side, Eigen::Vector2d::UnitY(), Eigen::Vector2d::Zero(), 0.0});
+  }
+  f.rays = static_cast<int>(f.silhouettes.size());
+  f.views = 10;
+  f.two_sided_views = 0;
+  EXPECT_TRUE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.rms_m = 0.009;  // 1.5 px: edges of what stands around it
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.rms_m = 0.0045;
+  // Ten rays of one side (the nearer stem's own edge, seen past it from one end of the arm).
+  for (TangentFit::Ray& r : f.silhouettes) r.side = 0;
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  // The right side in three views only.
+  for (size_t i = 7; i < f.silhouettes.size(); ++i) f.silhouettes[i].side = 1;
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  f.silhouettes[6].side = 1;
+  EXPECT_TRUE(StandsOnItsOwnSilhouettes(o, f, px_m));
+  TangentOptions off = o;
+  off.min_views_each_side = 0;
+  EXPECT_FALSE(StandsOnItsOwnSilhouettes(off, f, px_m));
+}
+
 TEST(HasSharpSilhouettes, BothSidesInThreeViewsOnOneCircleToHalfAPixel) {
   // natural-2's 11.4-cm stem 8.5 m out behind a 24.3-cm one: 10 rays, 4 views two-sided, 1.6 mm.
   const double px_m = 0.0058;

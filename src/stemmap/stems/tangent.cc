@@ -11,9 +11,58 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
+#include "stemmap/core/error.h"
 #include "stemmap/stems/silhouette.h"
 
 namespace stemmap::stems {
+
+void TangentOptions::Check() const {
+  if (!(background_parallax_px > 0 && max_neighbour_offset >= 1)) {
+    throw InputError("the silhouettes' neighbour views need a positive parallax and offset");
+  }
+  if (!(rows_half >= 1 && band_half_height_m > 0 && band_half_height_m < 1)) {
+    throw InputError("the silhouettes' bands need at least one row, within 1 m of breast height");
+  }
+  if (!(search_px > 0 && search_share >= 0)) {
+    throw InputError("the silhouettes' search must reach beyond the predicted edges");
+  }
+  if (!(min_contrast >= 0 && min_brightness_contrast >= 0)) {
+    throw InputError("the silhouettes' contrasts must not be negative");
+  }
+  if (!(huber_m > 0 && prior_share_of_distance > 0 && min_rays >= 3)) {
+    throw InputError("the tangent fit needs a positive robust scale and prior, and 3 rays");
+  }
+  if (!(max_sideways_m >= 0 && occluder_min_gap_m >= 0 && refits >= 0)) {
+    throw InputError(
+        "the tangent fit's sideways reach, occluder gap and refits must not be "
+        "negative");
+  }
+  if (!std::ranges::all_of(wide_start_scales, [](double k) { return k > 1; })) {
+    throw InputError("the wide starts' scales must exceed 1");
+  }
+  if (!std::ranges::all_of(narrow_start_scales, [](double k) { return k > 0 && k < 1; })) {
+    throw InputError("the narrow starts' scales must lie in (0, 1)");
+  }
+  if (!std::ranges::all_of(sideways_start_shifts, [](double k) { return k > 0; })) {
+    throw InputError("the sideways starts' shifts must be positive");
+  }
+  if (!(recheck_wider_scale >= 0 && recheck_min_gain >= 1 && recheck_rms_slack_px >= 0)) {
+    throw InputError("the wider recheck needs a scale of at least 0 and a gain of at least 1");
+  }
+  if (!(narrow_max_rms_px > 0 && narrow_min_share >= 0 && narrow_min_share <= 1)) {
+    throw InputError("the narrower fit's rms must be positive and its share within [0, 1]");
+  }
+  if (!(pooled_min_extra_rays >= 0 && few_views_min_two_sided >= 0 && few_views_min_share >= 0 &&
+        few_views_min_share <= 1)) {
+    throw InputError(
+        "the pooled and few-views fits' counts must not be negative, their share "
+        "within [0, 1]");
+  }
+  if (!(min_views_each_side >= 0)) {
+    throw InputError("the views each side needs must not be negative");
+  }
+  if (!(blur_sigma_px >= 0)) throw InputError("the silhouettes' blur must not be negative");
+}
 
 void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray) {
   if (o.blur_sigma_px <= 0) return;
@@ -271,6 +320,21 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
 }
 
 }  // namespace
+
+int TangentFit::SideViews(int side) const {
+  std::vector<int> keyframes;
+  for (const Ray& ray : silhouettes) {
+    if (ray.side == side) keyframes.push_back(ray.keyframe);
+  }
+  std::ranges::sort(keyframes);
+  return static_cast<int>(
+      std::ranges::distance(keyframes.begin(), std::ranges::unique(keyframes).begin()));
+}
+
+bool SidesSeenApart(const TangentOptions& o, const TangentFit& fit, double px_m) {
+  return o.min_views_each_side > 0 && fit.ok && fit.rms_m < o.narrow_max_rms_px * px_m &&
+         fit.SideViews(0) >= o.min_views_each_side && fit.SideViews(1) >= o.min_views_each_side;
+}
 
 // One circle for the silhouettes of every start (each once), robustly: it keeps the rays tangent
 // to one circle, whichever start found them. Fills `pooled` from `chosen` with that circle and the

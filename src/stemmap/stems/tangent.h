@@ -80,6 +80,11 @@ struct TangentOptions {
   // Such a fit is searched again from its own circle (its start's rounds may end before it
   // settles) and replaced when as tight, on as many silhouettes (one fewer at most).
   bool settle_few_views = true;
+  // A stem straight behind a nearer one may show its left side only from one end of the arm and
+  // its right side only from the other, never both at once. Silhouettes of each side in at
+  // least this many views, on one circle to within the narrower start's rms, bound its width
+  // from both sides as two-sided views do (SidesSeenApart). 0: off.
+  int min_views_each_side = 4;
   // The largest radius, as a multiple of radius0, that a fit from these starts may reach:
   // a little beyond the widest (a fit grows from its start), and 2.5 without wide starts.
   double WidestFitScale() const {
@@ -91,6 +96,7 @@ struct TangentOptions {
   // Gaussian blur of the images (px of the images used) before they are compared: resampling a
   // neighbour softens sharp bark, which would read as disagreement inside a well-lit stem.
   double blur_sigma_px = 1.0;
+  void Check() const;
 
   // The pixel sizes above are for a 960-px wide working image; the same for images `s` times as
   // large.
@@ -112,7 +118,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     wide_start_scales, recheck_wider_scale, recheck_min_gain, recheck_rms_slack_px,
     narrow_start_scales, narrow_max_rms_px, narrow_min_share, sideways_start_shifts,
     pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share, settle_few_views,
-    refine_on_brightness, blur_sigma_px)
+    min_views_each_side, refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
@@ -140,7 +146,17 @@ struct TangentFit {
     double heading = 0;
   };
   std::vector<Ray> silhouettes;
+  // The views that gave the silhouette of `side` (0 left, 1 right) in the last round.
+  int SideViews(int side) const;
 };
+
+// Whether a fit shows each side of its stem in at least min_views_each_side views (in the same
+// views or not) on one circle to within narrow_max_rms_px (px_m: metres a pixel spans at the
+// stem): the left and right silhouettes, each tangent to it across views, bound its width from
+// both sides, with no nearer stem's edge among them (those fan out and are tangent to no one
+// circle behind it). Its depth along the line of sight is held less firmly than by two-sided
+// views; its width, by the angle between the two sides' rays, far more.
+bool SidesSeenApart(const TangentOptions& o, const TangentFit& fit, double px_m);
 
 // One circle for the silhouettes of several fits of one stem (each silhouette once): reweighted
 // from each fit's circle in turn, the circle tangent to the most silhouettes. `pooled` is `chosen`

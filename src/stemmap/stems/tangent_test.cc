@@ -257,6 +257,25 @@ TEST(Tangent, FitsAStemStraightBehindANearerOne) {
   EXPECT_LT((fit.centre - centre).norm(), 0.35);
   EXPECT_GT(fit.hidden_sides, 0);
   EXPECT_LT(2 * fit.two_sided_views, fit.tried_views);
+  // Each side shows in views of its own, on one circle to about a pixel.
+  EXPECT_TRUE(SidesSeenApart(TangentOptions(), fit, centre.norm() / scene.camera.fx));
+}
+
+TEST(Tangent, SideViewsCountEachKeyframeOnce) {
+  TangentFit fit;
+  for (const auto& [keyframe, side] : {std::pair{3, 0}, {3, 1}, {5, 0}, {3, 0}, {9, 0}}) {
+    fit.silhouettes.push_back(
+        {keyframe, side, Eigen::Vector2d::UnitY(), Eigen::Vector2d::Zero(), 0.0});
+  }
+  EXPECT_EQ(fit.SideViews(0), 3);
+  EXPECT_EQ(fit.SideViews(1), 1);
+  fit.ok = true;
+  fit.rms_m = 0.001;
+  TangentOptions o;
+  o.min_views_each_side = 1;
+  EXPECT_TRUE(SidesSeenApart(o, fit, 0.01));
+  o.min_views_each_side = 2;
+  EXPECT_FALSE(SidesSeenApart(o, fit, 0.01));
 }
 
 // Seen from the plot centre, a nearer stem's outline within the stem's own width of its outline.
