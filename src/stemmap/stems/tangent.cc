@@ -509,7 +509,7 @@ bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const Tang
                       const Eigen::Vector2d& centre0, double radius0, double px_m) {
   const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
   const bool as_tight =
-      wider.rms_m <= fit.rms_m || (wider.two_sided_views > fit.two_sided_views &&
+      wider.rms_m <= fit.rms_m || (wider.two_sided_views >= fit.two_sided_views &&
                                    wider.rms_m <= fit.rms_m + o.recheck_rms_slack_px * px_m);
   return wider.ok && 2 * wider.two_sided_views >= wider.tried_views && as_tight &&
          wider.radius_m > o.recheck_min_gain * fit.radius_m &&

@@ -51,9 +51,10 @@ struct TangentOptions {
   // replaces it when as clean (two-sided in most views, rms no larger) and this much wider.
   double recheck_wider_scale = 1.6;
   double recheck_min_gain = 1.1;
-  // Or when two-sided in more views with an rms at most this much larger (px at the stem): a
-  // fit that closed inside the stem on bark or a shadow's edge loses both sides in the views
-  // where that edge fades, and its rms is no better than the whole stem's by more than noise.
+  // Or when two-sided in as many views or more with an rms at most this much larger (px at the
+  // stem): a fit that closed inside the stem on bark or a shadow's edge is no tighter than the
+  // whole stem's by more than noise (and loses both sides where that edge fades), while a
+  // circle too wide makes no edges outside the stem to hold it wide.
   double recheck_rms_slack_px = 0.25;
   // And from these, below 1: the cloud merged the stem with what stands close beside it (a
   // sapling, a shrub), and a start that wide takes their gaps for the stem's inside.
@@ -186,7 +187,7 @@ bool SettledFitReplaces(const TangentOptions& o, const TangentFit& few, const Ta
 void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);
 
 // Whether a fit from the wider recheck start replaces a fit two-sided in most views: two-sided in
-// most of its own views, as tight (or two-sided in more views within recheck_rms_slack_px; px_m:
+// most of its own views, as tight (or two-sided in as many views within recheck_rms_slack_px; px_m:
 // metres a pixel spans at the stem), wider by recheck_min_gain, within the widest scale of
 // radius0 and beside the fit by less than max_sideways_m across the line of sight.
 bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const TangentFit& wider,

@@ -531,7 +531,7 @@ TEST(Tangent, AWiderStartLeavesARightFitAlone) {
 // A fit that closed inside the stem (both sides in two thirds of the views) against the wider
 // start's whole stem (both sides in all): the wider one wins within the rms slack, swept over
 // the extra rms, and loses beyond it or when it is two-sided in no more views.
-TEST(Tangent, AWiderRecheckTwoSidedInMoreViewsWinsWithinTheRmsSlack) {
+TEST(Tangent, AWiderRecheckTwoSidedInAsManyViewsWinsWithinTheRmsSlack) {
   const TangentOptions o;
   const Eigen::Vector2d centre0(5.9, -4.3);
   const double radius0 = 0.15, px_m = centre0.norm() / 1600.0;
@@ -550,9 +550,16 @@ TEST(Tangent, AWiderRecheckTwoSidedInMoreViewsWinsWithinTheRmsSlack) {
               extra_px <= o.recheck_rms_slack_px)
         << "extra rms " << extra_px << " px";
   }
+  // As many two-sided views (both fits whole in every view): a fit closed inside the stem is
+  // no tighter than the stem's outline by more than noise.
   wider.two_sided_views = fit.two_sided_views;
   wider.rms_m = fit.rms_m + 0.1 * px_m;
+  EXPECT_TRUE(WiderRecheckWins(o, fit, wider, centre0, radius0, px_m));
+  wider.rms_m = fit.rms_m + 0.3 * px_m;
   EXPECT_FALSE(WiderRecheckWins(o, fit, wider, centre0, radius0, px_m));
+  wider.two_sided_views = fit.two_sided_views - 1;
+  wider.rms_m = fit.rms_m + 0.1 * px_m;
+  EXPECT_FALSE(WiderRecheckWins(o, fit, wider, centre0, radius0, px_m)) << "fewer two-sided";
   wider.centre = centre0 + 0.2 * Eigen::Vector2d(centre0.y(), -centre0.x()).normalized();
   wider.two_sided_views = 26;
   EXPECT_FALSE(WiderRecheckWins(o, fit, wider, centre0, radius0, px_m)) << "beside the fit";
