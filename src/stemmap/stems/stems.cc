@@ -552,13 +552,15 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
         MeasurePart(o, b, m, ground, depth_focal_px, false, &result, &result.vetoed);
     if (!s) continue;
     if (o.split_parts_into_cores) {
+      // Every core that is a stem on its own, even one alone: its siblings may be no stem (a
+      // sapling too thin, a clump of leaves at one height) while the part, widened by them, fits
+      // no silhouette as a whole.
       StemsResult not_counted;
       for (const std::vector<int>& sub : SplitOnDenserCells(o, band, m, 2 * o.min_cell_points)) {
         std::optional<Stem> a =
             MeasurePart(o, b, sub, ground, depth_focal_px, s->depth_smeared, &not_counted);
         if (a) s->alternatives.push_back(std::move(*a));
       }
-      if (s->alternatives.size() < 2) s->alternatives.clear();
     }
     result.stems.push_back(std::move(*s));
   }

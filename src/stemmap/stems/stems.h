@@ -116,7 +116,8 @@ struct Stem {
   // confirm_lean_deg.
   bool weak_support = false;
   StemFlags flags;
-  // For a depth-smeared part: the stems its denser cores make, when it has two or more.
+  // The stems its denser cores make, when it splits into two or more on them (one alone when
+  // the others are no stems).
   std::vector<Stem> alternatives;
   // The same stem as a larger cloud gave it (AttachLargerCloudParts), tried when this part comes
   // to nothing: its points may show the stem whole where this part is a sliver of it.

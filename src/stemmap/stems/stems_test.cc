@@ -398,5 +398,38 @@ TEST(Stems, PartOfATrunkAndAShrubKeepsTheTrunksCore) {
   EXPECT_TRUE(trunk_core);
 }
 
+// A trunk with a sapling 3 cm thick beside it, stray depths bridging the gap: one part, wider
+// than the trunk and off its centre. Its denser cores are the trunk and the sapling; the sapling
+// is too thin for a stem, so the trunk's core is the part's one alternative, and it is kept:
+// when no silhouette fits the whole part, that core is the stem.
+TEST(Stems, PartOfATrunkAndASaplingKeepsTheTrunksOneCore) {
+  Rng rng(10);
+  std::vector<dense::CloudPoint> cloud = FlatGround(&rng);
+  auto add = [&](const Eigen::Vector3d& p) { AddSeenFromArm(p, &rng, &cloud); };
+  const Eigen::Vector2d trunk(6.5, 0.4), sapling(6.5, 0.15);
+  const double r = 0.085;
+  auto add_face = [&](const Eigen::Vector2d& c, double radius, int n) {
+    for (int i = 0; i < n; ++i) {  // the face toward the centre, depth noise of 1 cm
+      const double a = std::atan2(-c.y(), -c.x()) + rng.Uniform(-1.3, 1.3);
+      const double rr = radius + rng.Normal(0, 0.01);
+      add(Eigen::Vector3d(c.x() + rr * std::cos(a), c.y() + rr * std::sin(a), rng.Uniform(0, 3)));
+    }
+  };
+  add_face(trunk, r, 6000);
+  add_face(sapling, 0.015, 2500);
+  for (int i = 0; i < 60; ++i) {  // stray depths in the gap between them
+    add(Eigen::Vector3d(trunk.x() + rng.Uniform(-0.04, 0.04), rng.Uniform(0.17, 0.31),
+                        rng.Uniform(0.9, 2.1)));
+  }
+  const GroundGrid ground(cloud, 13);
+  const StemsResult res = DetectStems(StemOptions(), cloud, ground);
+  ASSERT_EQ(res.stems.size(), 1u);
+  const Stem& whole = res.stems[0];
+  EXPECT_GT(whole.dbh_m, 2 * r + 0.05);  // the sapling widens the part
+  ASSERT_EQ(whole.alternatives.size(), 1u);
+  EXPECT_LT((whole.alternatives[0].centre_xy - trunk).norm(), 0.04);
+  EXPECT_NEAR(whole.alternatives[0].dbh_m, 2 * r, 0.03);
+}
+
 }  // namespace
 }  // namespace stemmap::stems
