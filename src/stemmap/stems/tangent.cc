@@ -34,8 +34,7 @@ void TangentOptions::Check() const {
   }
   if (!(max_sideways_m >= 0 && occluder_min_gap_m >= 0 && refits >= 0)) {
     throw InputError(
-        "the tangent fit's sideways reach, occluder gap and refits must not be "
-        "negative");
+        "the tangent fit's sideways reach, occluder gap and refits must not be negative");
   }
   if (!std::ranges::all_of(wide_start_scales, [](double k) { return k > 1; })) {
     throw InputError("the wide starts' scales must exceed 1");
@@ -55,8 +54,7 @@ void TangentOptions::Check() const {
   if (!(pooled_min_extra_rays >= 0 && few_views_min_two_sided >= 0 && few_views_min_share >= 0 &&
         few_views_min_share <= 1)) {
     throw InputError(
-        "the pooled and few-views fits' counts must not be negative, their share "
-        "within [0, 1]");
+        "the pooled and few-views fits' counts must not be negative, their share within [0, 1]");
   }
   if (!(min_views_each_side >= 0)) {
     throw InputError("the views each side needs must not be negative");
