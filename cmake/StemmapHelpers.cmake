@@ -8,7 +8,8 @@ endfunction()
 
 # Tests write their scratch files under the build folder (TMPDIR, which std::filesystem's
 # temp_directory_path() and GoogleTest's TempDir() follow), not into the system's /tmp: a run
-# leaves nothing behind outside it, and two build folders never share a file.
+# leaves nothing behind outside it, and two build folders never share a file (but for the
+# simulated captures named by STEMMAP_TEST_RENDERS, where it is set: src/stemmap/cli/test_renders.h).
 set(STEMMAP_TEST_TMPDIR "${CMAKE_BINARY_DIR}/test_tmp")
 file(MAKE_DIRECTORY "${STEMMAP_TEST_TMPDIR}")
 

@@ -13,6 +13,7 @@
 #include <system_error>
 #include <vector>
 
+#include "stemmap/cli/test_renders.h"
 #include "stemmap/core/io.h"
 #include "stemmap/core/run_folder.h"
 
@@ -102,22 +103,18 @@ class BadInput : public ::testing::Test {
     fs::remove_all(Dir(), ignored);
   }
   // The simulated captures, rendered once and shared by the tests (each runs in a process of its
-  // own) and by the builds (rendering is the slow part under the sanitizers, and the sanitizer
-  // build's tests run after the plain one's). Any build's render is a valid capture for these
-  // tests.
-  static fs::path Plots() { return fs::temp_directory_path() / "stemmap_bad_input_plots_v1"; }
+  // own) and, where STEMMAP_TEST_RENDERS names a folder, by the builds (test_renders.h).
+  static fs::path Plots() {
+    return SharedRenders(fs::temp_directory_path() / "stemmap_test_renders") / "bad_input_v1";
+  }
   static void Simulate(const std::string& name, double turns) {
-    const fs::path done = Plots() / name;
-    if (fs::exists(done / "video.mp4")) return;
-    const fs::path mine = Dir() / ("render_" + name);
-    ASSERT_EQ(RunStemmap(fmt::format("simulate --seed 4 --width 480 --height 270 --fps 10 "
-                                     "--seconds 9 --stills 0 --turns {} --out {}",
-                                     turns, Quote(mine)))
-                  .exit_code,
-              0);
-    fs::create_directories(Plots());
-    std::error_code ec;
-    fs::rename(mine, done, ec);  // another test's process may have finished it first
+    RenderedOnce(Plots(), name, std::to_string(::getpid()), [&](const fs::path& folder) {
+      ASSERT_EQ(RunStemmap(fmt::format("simulate --seed 4 --width 480 --height 270 --fps 10 "
+                                       "--seconds 9 --stills 0 --turns {} --out {}",
+                                       turns, Quote(folder)))
+                    .exit_code,
+                0);
+    });
   }
   static fs::path Plot() { return Plots() / "plot" / "video.mp4"; }
   // The plot's video through an FFmpeg filter or option set.

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "stemmap/cli/test_renders.h"
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/dense/cloud_io.h"
@@ -101,17 +102,21 @@ TEST(TrackEndToEnd, LowFrameRate) {
 
 TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   const fs::path dir = TestDir("process");
-  sim::SimulateOptions so = ShortPlot(dir, 1.1);
+  sim::SimulateOptions so = ShortPlot(dir / "plot", 1.1);
   so.width = 640;
   so.height = 360;
-  sim::RunSimulate(so);
+  const fs::path plot = RenderedOnce(SharedRenders(dir), "process_640", std::to_string(::getpid()),
+                                     [&](const fs::path& folder) {
+                                       so.out_dir = folder;
+                                       sim::RunSimulate(so);
+                                     });
   pipeline::ProcessOptions o;
-  o.track = OptionsFromTruth(dir / "truth.json");
+  o.track = OptionsFromTruth(plot / "truth.json");
   o.georef.centre_easting_m = 545000.0;
   o.georef.centre_northing_m = 4700000.0;
   o.georef.crs = "EPSG:25830";
   o.georef.first_bearing_deg = 212.0;
-  const pipeline::ProcessResult r = pipeline::RunProcess(o, dir / "video.mp4", dir / "out");
+  const pipeline::ProcessResult r = pipeline::RunProcess(o, plot / "video.mp4", dir / "out");
   for (const char* f : {"trees.csv", "summary.json", "cloud.ply", "stems_detail.csv",
                         "trajectory.tum", "process_options.json", "map.svg", "report.html",
                         "trees.gpkg", "trees.geojson", "cloud.las"}) {
@@ -147,7 +152,7 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   // A short, small clip: most near trees found, none far off.
   eval::EvaluateOptions eo;
   eo.plot_radius_m = 8.0;
-  const eval::TruthPlot truth = eval::ReadTruthJson(dir / "truth.json");
+  const eval::TruthPlot truth = eval::ReadTruthJson(plot / "truth.json");
   const eval::MatchStats m =
       eval::MatchAndScore(eo, truth.trees, eval::ReadTreesCsv(dir / "out" / "trees.csv"));
   EXPECT_GE(m.recall, 0.6);
@@ -157,7 +162,7 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   // The later stages again on the saved track: the same trees, without tracking.
   pipeline::ProcessOptions again = o;
   again.from_track = dir / "out";
-  const pipeline::ProcessResult r2 = pipeline::RunProcess(again, dir / "video.mp4", dir / "again");
+  const pipeline::ProcessResult r2 = pipeline::RunProcess(again, plot / "video.mp4", dir / "again");
   ASSERT_EQ(r2.stems.size(), r.stems.size());
   for (size_t i = 0; i < r.stems.size(); ++i) {
     EXPECT_NEAR((r2.stems[i].centre_xy - r.stems[i].centre_xy).norm(), 0.0, 1e-3) << i;
@@ -168,7 +173,7 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
             fs::absolute(dir / "out").string());
   // Detection alone again from the process run's folder: the same trees.
   const pipeline::ProcessResult r3 =
-      pipeline::RunStems(o, dir / "video.mp4", dir / "out", dir / "stems");
+      pipeline::RunStems(o, plot / "video.mp4", dir / "out", dir / "stems");
   ASSERT_EQ(r3.stems.size(), r.stems.size());
   for (size_t i = 0; i < r.stems.size(); ++i) {
     EXPECT_NEAR((r3.stems[i].centre_xy - r.stems[i].centre_xy).norm(), 0.0, 1e-6) << i;
@@ -183,12 +188,12 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   for (const char* f : {"keyframes.tum", "summary.json"}) {
     fs::copy_file(dir / "out" / f, dir / "track_only" / f);
   }
-  EXPECT_THROW(pipeline::RunStems(o, dir / "video.mp4", dir / "track_only", dir / "bad"),
+  EXPECT_THROW(pipeline::RunStems(o, plot / "video.mp4", dir / "track_only", dir / "bad"),
                InputError);
   // A folder that holds no track, or a video of another size, is refused.
   pipeline::ProcessOptions bad = o;
   bad.from_track = dir / "again" / "missing";
-  EXPECT_THROW(pipeline::RunProcess(bad, dir / "video.mp4", dir / "bad"), InputError);
+  EXPECT_THROW(pipeline::RunProcess(bad, plot / "video.mp4", dir / "bad"), InputError);
   sim::SimulateOptions small = ShortPlot(dir / "small", 1.1);
   small.seconds = 1;
   sim::RunSimulate(small);
