@@ -5,9 +5,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
 #include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
+#include <thread>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/progress.h"
@@ -150,6 +155,115 @@ std::vector<cv::Vec4f> VerticalSegments(const FrontendOptions& o, const cv::Mat&
   return out;
 }
 
+// A keyframe's ORB features and vertical segments, found on a thread of their own: tracking needs
+// neither, and they took a third of the tracking thread's time. Each keyframe is worked on alone
+// and in turn, so the results do not depend on the timing. Any error is thrown by Finish().
+class KeyframeFeatures {
+ public:
+  explicit KeyframeFeatures(const FrontendOptions& o)
+      : o_(o),
+        orb_(cv::ORB::create(o.orb_features)),
+        lsd_(cv::createLineSegmentDetector(cv::LSD_REFINE_NONE)),
+        worker_([this] { Work(); }) {}
+  ~KeyframeFeatures() {  // on an error in tracking: the keyframes still waiting are dropped
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      jobs_.clear();
+    }
+    Stop();
+  }
+
+  // Finds keyframe `index`'s features on `gray` (shared, not copied: it must not change), its
+  // segments moved to the frame's time with the picture's velocity `frame_vel` (px/s).
+  void Add(size_t index, const cv::Mat& gray, const Eigen::Vector2d& frame_vel) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      jobs_.push_back({index, gray, frame_vel});
+    }
+    wake_.notify_one();
+  }
+
+  // Waits for every keyframe added and fills in their features.
+  void Finish(std::vector<Keyframe>* keyframes) {
+    Stop();
+    if (error_) std::rethrow_exception(error_);
+    for (Done& d : done_) {
+      Keyframe& kf = (*keyframes)[d.index];
+      kf.orb_keypoints = std::move(d.orb_keypoints);
+      kf.orb_descriptors = d.orb_descriptors;
+      kf.vertical_segments = std::move(d.vertical_segments);
+    }
+  }
+
+ private:
+  struct Job {
+    size_t index;
+    cv::Mat gray;
+    Eigen::Vector2d frame_vel;
+  };
+  struct Done {
+    size_t index;
+    std::vector<cv::KeyPoint> orb_keypoints;
+    cv::Mat orb_descriptors;
+    std::vector<cv::Vec4f> vertical_segments;
+  };
+
+  void Stop() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_one();
+    if (worker_.joinable()) worker_.join();
+  }
+
+  void Work() {
+    for (;;) {
+      Job job;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return stop_ || !jobs_.empty(); });
+        if (jobs_.empty()) return;  // stopped, and every job done
+        job = std::move(jobs_.front());
+        jobs_.pop_front();
+      }
+      if (error_) continue;  // after an error the rest is dropped
+      try {
+        done_.push_back(Find(job));
+      } catch (...) {
+        error_ = std::current_exception();
+      }
+    }
+  }
+
+  Done Find(const Job& job) {
+    Done d{job.index, {}, {}, {}};
+    orb_->detectAndCompute(job.gray, cv::noArray(), d.orb_keypoints, d.orb_descriptors);
+    d.vertical_segments = VerticalSegments(o_, job.gray, lsd_.get());
+    for (cv::Vec4f& l : d.vertical_segments) {
+      for (int e : {0, 2}) {
+        const Eigen::Vector2d at =
+            AtFrameTime({l[e], l[e + 1]}, job.frame_vel, 1e-3 * o_.readout_ms, job.gray.rows);
+        l[e] = static_cast<float>(at.x());
+        l[e + 1] = static_cast<float>(at.y());
+      }
+    }
+    return d;
+  }
+
+  const FrontendOptions& o_;
+  cv::Ptr<cv::ORB> orb_;
+  cv::Ptr<cv::LineSegmentDetector> lsd_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::deque<Job> jobs_;
+  bool stop_ = false;
+  // Touched by the worker alone until it is joined.
+  std::vector<Done> done_;
+  std::exception_ptr error_;
+  std::thread worker_;  // last: starts once the members above exist
+};
+
 }  // namespace
 
 FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
@@ -162,10 +276,9 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
   const cv::Size win(o.lk_window_px, o.lk_window_px);
   const cv::Size fine_win(o.lk_refine_window_px, o.lk_refine_window_px);
   const cv::TermCriteria term(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03);
-  cv::Ptr<cv::ORB> orb = cv::ORB::create(o.orb_features);
-  cv::Ptr<cv::LineSegmentDetector> lsd = cv::createLineSegmentDetector(cv::LSD_REFINE_NONE);
 
   Tracker tr(o, camera);
+  KeyframeFeatures features(o);
   std::vector<cv::Mat> prev_pyr, pyr;
   cv::Mat gray, bgr, gray_full;
   int64_t tracked_frames = 0;
@@ -176,17 +289,8 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     Keyframe kf;
     kf.frame = frame;
     kf.t_s = t_s;
-    orb->detectAndCompute(gray, cv::noArray(), kf.orb_keypoints, kf.orb_descriptors);
-    kf.vertical_segments = VerticalSegments(o, gray, lsd.get());
-    for (cv::Vec4f& l : kf.vertical_segments) {
-      for (int e : {0, 2}) {
-        const Eigen::Vector2d at = AtFrameTime({l[e], l[e + 1]}, {tr.frame_vel.x, tr.frame_vel.y},
-                                               1e-3 * o.readout_ms, gray.rows);
-        l[e] = static_cast<float>(at.x());
-        l[e + 1] = static_cast<float>(at.y());
-      }
-    }
     kf.gray = gray.clone();  // `gray` is the next frame's buffer
+    features.Add(r.keyframes.size(), kf.gray, {tr.frame_vel.x, tr.frame_vel.y});
     if (o.keep_keyframe_images) {
       kf.bgr = bgr;
       kf.gray_full = gray_full;
@@ -308,6 +412,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
   if (last_tracked >= 0 && r.keyframes.back().frame != last_tracked) {
     add_keyframe(last_tracked, last_t);
   }
+  features.Finish(&r.keyframes);
   r.corrupt_packets = reader.corrupt_packets();
   AddMissingSpans(r.info.fps, r.frame_t_s, &r.damaged_spans_s);
   r.tracked_frames = static_cast<int>(tracked_frames);

@@ -1,10 +1,16 @@
 #include "stemmap/track/frontend.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
+#include <filesystem>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <string>
 
 #include "stemmap/core/error.h"
+#include "stemmap/video/video_reader.h"
+#include "stemmap/video/video_writer.h"
 
 namespace stemmap::track {
 namespace {
@@ -43,6 +49,68 @@ TEST(Frontend, AtFrameTimeUndoesEachRowsDelay) {
   EXPECT_THROW(o.Check(), InputError);
   o.readout_ms = 150;
   EXPECT_THROW(o.Check(), InputError);
+}
+
+// A camera panning across a wall of textured vertical bars (trunks), as a short clip.
+std::filesystem::path PanningClip(const std::filesystem::path& dir) {
+  cv::RNG rng(7);
+  cv::Mat wall(360, 2400, CV_8UC3);
+  rng.fill(wall, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(wall, wall, cv::Size(3, 3), 0.8);
+  for (int x = 40; x < wall.cols - 60; x += 90) {
+    cv::rectangle(wall, cv::Rect(x, 0, 30, wall.rows), cv::Scalar(30, 40, 45), cv::FILLED);
+  }
+  VideoWriterOptions wo;
+  wo.width = 320;
+  wo.height = 240;
+  wo.fps = 15;
+  const std::filesystem::path path = dir / "pan.mp4";
+  VideoWriter writer(path, wo);
+  for (int i = 0; i < 60; ++i) writer.Write(wall(cv::Rect(20 + 12 * i, 60, 320, 240)).clone());
+  writer.Close();
+  return path;
+}
+
+// ORB features and vertical segments are found for every keyframe off the tracking thread; a
+// keyframe's features are those of its own picture, whatever the timing, and two runs agree.
+TEST(Frontend, EveryKeyframeGetsItsOwnFeatures) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("stemmap_frontend_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::filesystem::path clip = PanningClip(dir);
+  FrontendOptions o;
+  o.working_long_side_px = 320;
+  o.orb_features = 200;
+  const PinholeCamera camera = PinholeCamera::FromHfov(320, 240, 60.0);
+  auto run = [&] {
+    VideoReaderOptions ro;
+    ro.max_long_side_px = 320;
+    ro.prefetch_frames = 4;
+    VideoReader reader(clip, ro);
+    return RunFrontend(o, reader, camera);
+  };
+  const FrontendResult a = run(), b = run();
+  ASSERT_GE(a.keyframes.size(), 5u);
+  ASSERT_EQ(a.keyframes.size(), b.keyframes.size());
+  cv::Ptr<cv::ORB> orb = cv::ORB::create(o.orb_features);
+  for (size_t i = 0; i < a.keyframes.size(); ++i) {
+    SCOPED_TRACE(i);
+    const Keyframe& kf = a.keyframes[i];
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat descriptors;
+    orb->detectAndCompute(kf.gray, cv::noArray(), keypoints, descriptors);
+    ASSERT_FALSE(keypoints.empty());
+    ASSERT_EQ(kf.orb_keypoints.size(), keypoints.size());
+    EXPECT_EQ(cv::norm(kf.orb_descriptors, descriptors, cv::NORM_HAMMING), 0.0);
+    EXPECT_EQ(cv::norm(kf.orb_descriptors, b.keyframes[i].orb_descriptors, cv::NORM_HAMMING), 0.0);
+    // The bars' edges, near vertical and the height of the picture.
+    EXPECT_GE(kf.vertical_segments.size(), 4u);
+    ASSERT_EQ(kf.vertical_segments.size(), b.keyframes[i].vertical_segments.size());
+    for (size_t s = 0; s < kf.vertical_segments.size(); ++s) {
+      EXPECT_EQ(kf.vertical_segments[s], b.keyframes[i].vertical_segments[s]);
+    }
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
