@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <exception>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
@@ -31,6 +32,9 @@ void DenseOptions::Check() const {
   }
   if (short_baseline_max_depth_m != 0 && !(short_baseline_max_depth_m > near_max_depth_m)) {
     throw InputError("the short-baseline depth limit must be 0 or beyond the near pairs' range");
+  }
+  if (!(pair_threads >= 1 && pair_threads <= 64)) {
+    throw InputError(fmt::format("stereo pair threads {} must lie in 1-64", pair_threads));
   }
 }
 
@@ -108,22 +112,54 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
   DenseResult r;
   r.depth_focal_px = in.camera.fx * o.stereo.scale / o.stereo.pixel_step;
   Progress progress("depth", static_cast<int64_t>(pairs.size()));
-  int masked = 0;
+  // Several pairs at a time (pair_threads), each into its own slot and gathered in pair order, so
+  // the cloud does not depend on the threads. A mask model is run from one thread.
+  struct PairPoints {
+    bool done = false;
+    std::vector<CloudPoint> points, short_baseline;
+    std::exception_ptr error;
+  };
+  std::vector<PairPoints> per_pair(pairs.size());
+  int64_t finished = 0;
+#pragma omp parallel for schedule(dynamic) num_threads(o.pair_threads) if (in.mask_model == nullptr)
   for (size_t i = 0; i < pairs.size(); ++i) {
     const auto [a, b, stereo] = pairs[i];
     const cv::Mat &ia = in.images[a], &ib = in.images[b];
-    if (ia.empty() || ib.empty()) continue;
-    const bool near = stereo == &near_stereo;
-    std::vector<CloudPoint> pts = StereoPairPoints(
-        *stereo, ia, ib, in.camera, in.keyframes[a].world_from_cam, in.keyframes[b].world_from_cam,
-        a, near ? o.short_baseline_max_depth_m : 0.0, near ? &r.short_baseline_points : nullptr);
-    if (in.mask_model != nullptr) {
-      LabelTrunkPoints(in.mask_model->Predict(ia), in.camera, in.keyframes[a].world_from_cam, &pts);
-      ++masked;
+    PairPoints& out = per_pair[i];
+    try {
+      if (!ia.empty() && !ib.empty()) {
+        const bool near = stereo == &near_stereo;
+        out.points = StereoPairPoints(*stereo, ia, ib, in.camera, in.keyframes[a].world_from_cam,
+                                      in.keyframes[b].world_from_cam, a,
+                                      near ? o.short_baseline_max_depth_m : 0.0,
+                                      near ? &out.short_baseline : nullptr);
+        if (in.mask_model != nullptr) {
+          LabelTrunkPoints(in.mask_model->Predict(ia), in.camera, in.keyframes[a].world_from_cam,
+                           &out.points);
+        }
+        out.done = true;
+      }
+    } catch (...) {
+      out.error = std::current_exception();  // an exception must not leave the parallel loop
     }
-    r.points.insert(r.points.end(), pts.begin(), pts.end());
+#pragma omp critical(dense_progress)
+    {
+      try {
+        progress.Update(++finished);
+      } catch (...) {
+        if (!out.error) out.error = std::current_exception();
+      }
+    }
+  }
+  int masked = 0;
+  for (PairPoints& p : per_pair) {
+    if (p.error) std::rethrow_exception(p.error);
+    if (!p.done) continue;
+    r.points.insert(r.points.end(), p.points.begin(), p.points.end());
+    r.short_baseline_points.insert(r.short_baseline_points.end(), p.short_baseline.begin(),
+                                   p.short_baseline.end());
+    masked += in.mask_model != nullptr;
     ++r.pairs;
-    progress.Update(static_cast<int64_t>(i + 1));
   }
   progress.Finish();
   if (r.pairs == 0) throw ProcessingError("no keyframe images found for stereo (timestamps?)");

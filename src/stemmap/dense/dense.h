@@ -25,6 +25,9 @@ struct DenseOptions {
   // view for only a few degrees of turn, where pairs 14° apart do not. Used only to find stems
   // the cloud missed (DenseResult::short_baseline_points).
   double short_baseline_max_depth_m = 12.0;
+  // Pairs worked on at once: SGBM keeps only part of a second core busy. The cloud is the same
+  // for any number (each pair's points are gathered in pair order).
+  int pair_threads = 2;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -32,7 +35,7 @@ struct DenseOptions {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(DenseOptions, stereo, pair_turn_deg,
                                                 reference_step_deg, near_pair_turn_deg,
                                                 near_min_depth_m, near_max_depth_m,
-                                                short_baseline_max_depth_m)
+                                                short_baseline_max_depth_m, pair_threads)
 
 class TrunkMaskModel;
 
