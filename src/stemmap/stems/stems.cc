@@ -54,6 +54,14 @@ void StemOptions::Check() const {
   if (!(confirm_lean_deg > 0 && confirm_lean_deg <= max_lean_deg)) {
     throw InputError("the lean that needs confirming must lie in (0, max_lean_deg]");
   }
+  if (!(lean_slice_min_points >= 2 && lean_slice_min_share >= 0 && lean_slice_min_share <= 1)) {
+    throw InputError(
+        "a third of the band holds a surface with at least 2 points (lean_slice_min_points) and "
+        "a share in [0, 1] of the densest third's (lean_slice_min_share)");
+  }
+  if (!(lean_centroid_noise_m >= 0 && lean_centroid_noise_m < 0.5)) {
+    throw InputError("lean_centroid_noise_m must lie in [0, 0.5) m");
+  }
   if (!(weak_support_share >= 0 && weak_support_share <= 1)) {
     throw InputError("weak_support_share must be in [0, 1]");
   }
@@ -375,23 +383,31 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   const int most = *std::ranges::max_element(cnt);
   std::vector<Eigen::Vector3d> cent;
   for (int s = 0; s < 3; ++s) {
-    if (cnt[s] >= 5 && 10 * cnt[s] >= most) cent.push_back(sum[s] / cnt[s]);
+    if (cnt[s] >= o.lean_slice_min_points && cnt[s] + 1e-9 >= o.lean_slice_min_share * most) {
+      cent.push_back(sum[s] / cnt[s]);
+    }
   }
-  double lean_deg = 90.0;
+  // The lean measured, and the lean the centroids prove (beyond their sideways scatter on a
+  // plumb stem), which is what rejects a part or leaves it for silhouettes to confirm.
+  double lean_deg = 90.0, proven_lean_deg = 90.0;
   if (cent.size() >= 2) {
     const Eigen::Vector3d d = cent.back() - cent.front();
-    lean_deg = std::atan2(d.head<2>().norm(), std::abs(d.z())) * 180.0 / M_PI;
+    const double sideways_m = d.head<2>().norm(), up_m = std::abs(d.z());
+    lean_deg = std::atan2(sideways_m, up_m) * 180.0 / M_PI;
+    proven_lean_deg =
+        std::atan2(std::max(0.0, sideways_m - o.lean_centroid_noise_m), up_m) * 180.0 / M_PI;
   }
-  if (lean_deg > o.max_lean_deg) {
+  if (proven_lean_deg > o.max_lean_deg) {
     ++tally->rejected_vertical;
-    spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: lean {:.1f}° ({} sub-slices{})",
-                  c0.x(), c0.y(), lean_deg, cent.size(),
-                  cent.size() >= 2
-                      ? fmt::format(", ({:.2f}, {:.2f}, {:.2f}) to ({:.2f}, {:.2f}, "
-                                    "{:.2f})",
-                                    cent.front().x(), cent.front().y(), cent.front().z(),
-                                    cent.back().x(), cent.back().y(), cent.back().z())
-                      : "");
+    spdlog::debug(
+        "stems: part at ({:.2f}, {:.2f}) rejected: lean {:.1f}° ({} sub-slices of "
+        "{}/{}/{} points{})",
+        c0.x(), c0.y(), lean_deg, cent.size(), cnt[0], cnt[1], cnt[2],
+        cent.size() >= 2 ? fmt::format(", ({:.2f}, {:.2f}, {:.2f}) to ({:.2f}, {:.2f}, "
+                                       "{:.2f})",
+                                       cent.front().x(), cent.front().y(), cent.front().z(),
+                                       cent.back().x(), cent.back().y(), cent.back().z())
+                         : "");
     return std::nullopt;
   }
   // Breast-height slice.
@@ -452,7 +468,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   s.n_points = static_cast<int>(slice.size());
   s.n_views = static_cast<int>(views.size());
   s.lean_deg = lean_deg;
-  if (lean_deg > o.confirm_lean_deg) s.weak_support = true;
+  if (proven_lean_deg > o.confirm_lean_deg) s.weak_support = true;
   if (s.n_views < 3) s.flags.Set(StemFlag::kFewViews);
   if (s.pass_through > o.free_space_veto) {
     ++tally->vetoed_free_space;
