@@ -59,9 +59,6 @@ void StemOptions::Check() const {
         "a third of the band holds a surface with at least 2 points (lean_slice_min_points) and "
         "a share in [0, 1] of the densest third's (lean_slice_min_share)");
   }
-  if (!(lean_centroid_noise_m >= 0 && lean_centroid_noise_m < 0.5)) {
-    throw InputError("lean_centroid_noise_m must lie in [0, 0.5) m");
-  }
   if (!(weak_support_share >= 0 && weak_support_share <= 1)) {
     throw InputError("weak_support_share must be in [0, 1]");
   }
@@ -387,17 +384,12 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
       cent.push_back(sum[s] / cnt[s]);
     }
   }
-  // The lean measured, and the lean the centroids prove (beyond their sideways scatter on a
-  // plumb stem), which is what rejects a part or leaves it for silhouettes to confirm.
-  double lean_deg = 90.0, proven_lean_deg = 90.0;
+  double lean_deg = 90.0;
   if (cent.size() >= 2) {
     const Eigen::Vector3d d = cent.back() - cent.front();
-    const double sideways_m = d.head<2>().norm(), up_m = std::abs(d.z());
-    lean_deg = std::atan2(sideways_m, up_m) * 180.0 / M_PI;
-    proven_lean_deg =
-        std::atan2(std::max(0.0, sideways_m - o.lean_centroid_noise_m), up_m) * 180.0 / M_PI;
+    lean_deg = std::atan2(d.head<2>().norm(), std::abs(d.z())) * 180.0 / M_PI;
   }
-  if (proven_lean_deg > o.max_lean_deg) {
+  if (lean_deg > o.max_lean_deg) {
     ++tally->rejected_vertical;
     spdlog::debug(
         "stems: part at ({:.2f}, {:.2f}) rejected: lean {:.1f}° ({} sub-slices of "
@@ -468,7 +460,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   s.n_points = static_cast<int>(slice.size());
   s.n_views = static_cast<int>(views.size());
   s.lean_deg = lean_deg;
-  if (proven_lean_deg > o.confirm_lean_deg) s.weak_support = true;
+  if (lean_deg > o.confirm_lean_deg) s.weak_support = true;
   if (s.n_views < 3) s.flags.Set(StemFlag::kFewViews);
   if (s.pass_through > o.free_space_veto) {
     ++tally->vetoed_free_space;

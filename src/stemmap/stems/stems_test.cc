@@ -133,7 +133,7 @@ TEST(StemOptions, CheckRejectsOutOfRangeValues) {
   for (auto set : std::vector<std::function<void(StemOptions*)>>{
            [](StemOptions* o) { o->lean_slice_min_points = 1; },
            [](StemOptions* o) { o->lean_slice_min_share = 1.5; },
-           [](StemOptions* o) { o->lean_centroid_noise_m = -0.01; }}) {
+           [](StemOptions* o) { o->lean_slice_min_share = -0.1; }}) {
     StemOptions o;
     set(&o);
     EXPECT_THROW(o.Check(), InputError);
@@ -276,33 +276,6 @@ TEST(Stems, NearTrunkWithStrayPointsAboveIsVertical) {
   ASSERT_EQ(res.stems.size(), 1u);
   EXPECT_LT((res.stems[0].centre_xy - c).norm(), 0.05);
   EXPECT_LT(res.stems[0].lean_deg, 5.0);
-}
-
-// A stem seen over a short height only (through a gap in leaves): the band's lower and middle
-// thirds hold a few centimetres of it each, on arcs seen from cameras a little apart. Their
-// centroids lie 3 cm apart sideways and 10 cm apart in height, which proves no lean.
-TEST(Stems, CentroidsCloseInHeightProveNoLean) {
-  Rng rng(12);
-  std::vector<dense::CloudPoint> cloud = FlatGround(&rng);
-  const Eigen::Vector2d c(3.2, 2.4);
-  const double r = 0.085, bearing = std::atan2(c.y(), c.x());
-  for (const auto& [turn, z_low] : {std::pair{0.0, 1.2}, std::pair{0.35, 1.3}}) {
-    for (int i = 0; i < 400; ++i) {
-      const double a = bearing + M_PI + turn + rng.Uniform(-0.4, 0.4);
-      AddSeenFromArm(Eigen::Vector3d(c.x() + r * std::cos(a), c.y() + r * std::sin(a),
-                                     rng.Uniform(z_low, z_low + 0.1)),
-                     &rng, &cloud);
-    }
-  }
-  const StemsResult res = DetectWithoutBearingSplit(cloud);
-  ASSERT_EQ(res.stems.size(), 1u);
-  EXPECT_LT((res.stems[0].centre_xy - c).norm(), 0.05);
-  EXPECT_GT(res.stems[0].lean_deg, 12.0) << "the centroids' own lean, as measured";
-  // Counting the whole sideways offset as lean rejects it.
-  StemOptions no_scatter;
-  no_scatter.split_by_bearing = false;
-  no_scatter.lean_centroid_noise_m = 0.0;
-  EXPECT_TRUE(DetectStems(no_scatter, cloud, GroundGrid(cloud, 13)).stems.empty());
 }
 
 // A near trunk whose breast-height slice came out flattened and bowed toward the cameras (as
