@@ -26,5 +26,10 @@ function(stemmap_test name)
   if(ARG_LABELS)
     list(APPEND properties LABELS "${ARG_LABELS}")
   endif()
+  # End-to-end tests take minutes under the sanitizers: started first, the unit tests fill the
+  # other core beside them instead of leaving it idle at the end.
+  if("e2e" IN_LIST ARG_LABELS)
+    list(APPEND properties COST 1000)
+  endif()
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60 PROPERTIES ${properties})
 endfunction()
