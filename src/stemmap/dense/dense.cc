@@ -151,13 +151,22 @@ DenseResult RunDense(const DenseOptions& o, const DenseInput& in,
       }
     }
   }
+  // Gathered into one cloud sized once, each pair's points freed as they are copied, so the
+  // pairs' copies and the cloud are not held in full together.
+  size_t total = 0;
+  for (const PairPoints& p : per_pair) {
+    if (p.error) std::rethrow_exception(p.error);
+    total += p.points.size();
+  }
+  r.points.reserve(total);
   int masked = 0;
   for (PairPoints& p : per_pair) {
-    if (p.error) std::rethrow_exception(p.error);
     if (!p.done) continue;
     r.points.insert(r.points.end(), p.points.begin(), p.points.end());
     r.short_baseline_points.insert(r.short_baseline_points.end(), p.short_baseline.begin(),
                                    p.short_baseline.end());
+    std::vector<CloudPoint>().swap(p.points);
+    std::vector<CloudPoint>().swap(p.short_baseline);
     masked += in.mask_model != nullptr;
     ++r.pairs;
   }
