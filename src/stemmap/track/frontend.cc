@@ -80,10 +80,14 @@ struct Tracker {
   Tracker(const FrontendOptions& options, const PinholeCamera& cam) : o(options), camera(cam) {}
   const FrontendOptions& o;
   const PinholeCamera& camera;
-  std::vector<cv::Point2f> pts;     // alive points in the current tracked frame
-  std::vector<int> ids;             // their track ids
-  std::vector<cv::Point2f> at_kf;   // their position at the last keyframe (x < 0: born later)
-  std::vector<cv::Point2f> vel;     // their image velocity (px/s) from the frame before
+  std::vector<cv::Point2f> pts;    // alive points in the current tracked frame
+  std::vector<int> ids;            // their track ids
+  std::vector<cv::Point2f> at_kf;  // their position at the last keyframe (x < 0: born later)
+  std::vector<cv::Point2f> vel;    // their image velocity (px/s) from the frame before
+  // Whether the point was born at the last keyframe and has not been tracked since: its one
+  // observation was moved to the frame's time with the picture's median velocity, a guess that
+  // is wrong for a point nearer or farther than most (its velocity differs by the parallax).
+  std::vector<uint8_t> newborn;
   cv::Point2f frame_vel{0.f, 0.f};  // the median of the points' velocities
   std::vector<std::vector<Observation>> tracks;
   size_t alive_at_kf = 0;
@@ -123,16 +127,30 @@ struct Tracker {
       ids.push_back(static_cast<int>(tracks.size()));
       at_kf.emplace_back(-1.f, -1.f);
       vel.push_back(frame_vel);  // a new point moves as the picture does, at first
+      newborn.push_back(1);
       tracks.emplace_back();
     }
   }
 
   void RecordKeyframe(int kf, int rows) {
     for (size_t i = 0; i < pts.size(); ++i) {
-      tracks[ids[i]].push_back({kf, AtFrameTime(i, rows)});
+      const Eigen::Vector2d at = AtFrameTime(i, rows);
+      tracks[ids[i]].push_back({kf, at, Eigen::Vector2d(pts[i].x, pts[i].y) - at});
       at_kf[i] = pts[i];
     }
     alive_at_kf = pts.size();
+  }
+
+  // Point i, born at the last keyframe and now followed one step, has its own velocity
+  // `px_per_s`: its birth observation is moved to the frame's time again with it in place of
+  // the picture's.
+  void MoveBirthObservation(size_t i, const cv::Point2f& px_per_s, int rows) {
+    newborn[i] = 0;
+    if (o.readout_ms <= 0) return;
+    Observation& birth = tracks[ids[i]].back();
+    const Eigen::Vector2d shown(at_kf[i].x, at_kf[i].y);
+    birth.px = track::AtFrameTime(shown, {px_per_s.x, px_per_s.y}, 1e-3 * o.readout_ms, rows);
+    birth.picture_offset_px = shown - birth.px;
   }
 };
 
@@ -368,17 +386,22 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
       }
       dx.push_back(p.x - tr.pts[i].x);
       dy.push_back(p.y - tr.pts[i].y);
-      if (dt_s > 0) tr.vel[i] = (p - tr.pts[i]) * static_cast<float>(1.0 / dt_s);
+      if (dt_s > 0) {
+        tr.vel[i] = (p - tr.pts[i]) * static_cast<float>(1.0 / dt_s);
+        if (tr.newborn[i]) tr.MoveBirthObservation(i, tr.vel[i], gray.rows);
+      }
       tr.pts[k] = p;
       tr.ids[k] = tr.ids[i];
       tr.at_kf[k] = tr.at_kf[i];
       tr.vel[k] = tr.vel[i];
+      tr.newborn[k] = tr.newborn[i];
       ++k;
     }
     tr.pts.resize(k);
     tr.ids.resize(k);
     tr.at_kf.resize(k);
     tr.vel.resize(k);
+    tr.newborn.resize(k);
     last_t = f->t_s;
     const float med_dx = Median(&dx), med_dy = Median(&dy);
     r.sideways_motion_px += std::abs(med_dx);

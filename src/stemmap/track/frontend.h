@@ -54,6 +54,9 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
 struct Observation {
   int keyframe = 0;
   Eigen::Vector2d px;  // working-resolution pixel (at the frame's time: readout_ms)
+  // Where the picture shows the point, less `px`: its row's rolling-shutter shift (zero for a
+  // global shutter). Patches are matched where the picture shows them.
+  Eigen::Vector2d picture_offset_px = Eigen::Vector2d::Zero();
 };
 
 // Where a point seen at `px` (its row's time) with image velocity `px_per_s` was at the frame's

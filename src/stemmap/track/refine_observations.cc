@@ -187,9 +187,15 @@ RefineObservationsSummary RefineKeyframeObservations(const RefineObservationsOpt
       if (!LocalPatchWarp(map, camera, ref.keyframe, ob.keyframe, map.point_world[t], &a)) {
         continue;
       }
-      Eigen::Vector2d px = ob.px;
+      // Matched where the pictures show the point (a rolling shutter shifts each row), then
+      // moved to the frame's time by the observation's own shift.
+      Eigen::Vector2d px = ob.px + ob.picture_offset_px;
       double ncc = 0;
-      if (!AlignPatch(o, ref_img, ref.px, gray[ob.keyframe], a, &px, &ncc)) continue;
+      if (!AlignPatch(o, ref_img, ref.px + ref.picture_offset_px, gray[ob.keyframe], a, &px,
+                      &ncc)) {
+        continue;
+      }
+      px -= ob.picture_offset_px;
       const double d = (px - ob.px).norm();
       if (ncc < o.min_ncc || d > o.max_shift_px) continue;
       ob.px = px;

@@ -95,5 +95,31 @@ TEST(RefineObservations, FramesBetweenKeyframesTakeTheInterpolatedCorrection) {
   EXPECT_NEAR(between[2].px[0].x(), 16.0, 2e-3);  // at the first keyframe: its correction
 }
 
+// Under a rolling shutter a point's picture lies off its frame-time place by its row's shift, which
+// differs from keyframe to keyframe (the point's speed across the picture changes): the patches
+// are matched where the pictures show the point and the refined place keeps its own shift.
+TEST(RefineObservations, PatchesAreMatchedWhereTheRollingShutterShowsThem) {
+  const PinholeCamera camera = PinholeCamera::FromHfov(160, 120, 60.0);
+  SparseMap map;
+  // Two keyframes at one pose: the patch warp is the identity.
+  const Eigen::Quaterniond cam_from_world = Eigen::Quaterniond::Identity();
+  map.cam_from_world = {cam_from_world, cam_from_world};
+  map.centre_world = {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  map.point_world = {Eigen::Vector3d(0, 0, 4)};
+  map.point_valid = {1};
+  map.obs_valid = {{1, 1}};
+  const Eigen::Vector2d at_frame_time(80, 60);
+  const Eigen::Vector2d shift0(0.6, 0.2), shift1(-0.4, -0.1);
+  const std::vector<cv::Mat> gray = {Texture(5, 160, 120, shift0.x(), shift0.y()),
+                                     Texture(5, 160, 120, shift1.x(), shift1.y())};
+  std::vector<Track> tracks = {{{{0, at_frame_time, shift0}, {1, at_frame_time, shift1}}}};
+  RefineObservationsOptions o;
+  RefineKeyframeObservations(o, gray, camera, map, &tracks);
+  // Keyframe 1 is the reference; keyframe 0's place at the frame's time was right and stays.
+  EXPECT_NEAR(tracks[0].obs[0].px.x(), at_frame_time.x(), 0.05);
+  EXPECT_NEAR(tracks[0].obs[0].px.y(), at_frame_time.y(), 0.05);
+  EXPECT_EQ(tracks[0].obs[0].picture_offset_px, shift0);
+}
+
 }  // namespace
 }  // namespace stemmap::track
