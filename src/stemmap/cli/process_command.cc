@@ -152,9 +152,14 @@ void AddStemsCommand(CLI::App& app) {
       ->check(CLI::ExistingFile);
   sub->callback([sub, opt, video, from, out, file] {
     ApplyLogLevel(*sub);
+    // The run folder's own file may come from another version: keys it has that no option
+    // has are ignored with a warning. A file given with --options must name options only.
     const std::filesystem::path saved = file->empty() ? *from / "process_options.json" : *file;
     if (std::filesystem::exists(saved)) {
-      *opt = OverlayOptions(ReadOptionsJson<pipeline::ProcessOptions>(saved), *opt);
+      *opt = OverlayOptions(
+          ReadOptionsJson<pipeline::ProcessOptions>(
+              saved, file->empty() ? UnknownOptionKeys::kWarn : UnknownOptionKeys::kRefuse),
+          *opt);
     }
     const pipeline::ProcessResult r = pipeline::RunStems(*opt, *video, *from, *out);
     fmt::print("{}wrote {}\n", r.Table(), out->string());

@@ -1,6 +1,7 @@
 #include "stemmap/core/io.h"
 
 #include <fmt/format.h>
+#include <spdlog/spdlog.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -86,6 +87,35 @@ const nlohmann::json* FindHugeNumber(const nlohmann::json& j) {
 }
 
 }  // namespace
+
+namespace {
+
+void AddUnknownKeys(const nlohmann::json& given, const nlohmann::json& known,
+                    const std::string& prefix, std::vector<std::string>* out) {
+  for (const auto& [key, value] : given.items()) {
+    const std::string path = prefix.empty() ? key : prefix + "." + key;
+    const auto it = known.find(key);
+    if (it == known.end()) {
+      out->push_back(path);
+    } else if (value.is_object() && it->is_object()) {
+      AddUnknownKeys(value, *it, path, out);
+    }
+  }
+}
+
+}  // namespace
+
+void CheckNoUnknownKeys(const fs::path& path, const nlohmann::json& given,
+                        const nlohmann::json& known, UnknownOptionKeys policy) {
+  std::vector<std::string> unknown;
+  if (given.is_object() && known.is_object()) AddUnknownKeys(given, known, "", &unknown);
+  if (unknown.empty()) return;
+  const std::string what = fmt::format(
+      "{}: no option is called '{}'{}", path.string(), unknown.front(),
+      unknown.size() > 1 ? fmt::format(" ({} more unknown keys)", unknown.size() - 1) : "");
+  if (policy == UnknownOptionKeys::kRefuse) throw InputError(what);
+  spdlog::warn("{}; ignored", what);
+}
 
 nlohmann::json ReadJsonFile(const fs::path& path) {
   const std::string text = ReadFileToString(path);

@@ -22,17 +22,34 @@ std::string ReadFileToString(const std::filesystem::path& path);
 // Parses a JSON file; throws InputError naming the file and the parse error.
 nlohmann::json ReadJsonFile(const std::filesystem::path& path);
 
+// What reading an options file does with a key that no option has.
+enum class UnknownOptionKeys {
+  kRefuse,  // an error: a file the user wrote, where a misspelt or misplaced key would otherwise
+            // be dropped without a word and its option left at the default
+  kWarn,    // a warning, the key ignored: a file an earlier run saved, perhaps another version's
+};
+
+// Throws InputError (or warns, by `policy`) naming `path` and the first key of `given`, at any
+// depth, that `known` lacks, as a dotted path ("track.bundle.x").
+void CheckNoUnknownKeys(const std::filesystem::path& path, const nlohmann::json& given,
+                        const nlohmann::json& known, UnknownOptionKeys policy);
+
 // Options saved by a run (`*_options.json`) read back; a missing key keeps its default. Throws
-// InputError naming the file and what is wrong in it.
+// InputError naming the file and what is wrong in it; a key that no option has is refused or
+// warned of by `unknown_keys`.
 template <typename Options>
-Options ReadOptionsJson(const std::filesystem::path& path) {
+Options ReadOptionsJson(const std::filesystem::path& path,
+                        UnknownOptionKeys unknown_keys = UnknownOptionKeys::kRefuse) {
   const nlohmann::json j = ReadJsonFile(path);
   if (!j.is_object()) throw InputError(path.string() + ": not a JSON object of options");
+  Options options;
   try {
-    return j.get<Options>();
+    options = j.get<Options>();
   } catch (const nlohmann::json::exception& e) {
     throw InputError(path.string() + ": " + e.what());
   }
+  CheckNoUnknownKeys(path, j, nlohmann::json(options), unknown_keys);
+  return options;
 }
 
 // Options read from a file with the command line's on top: every option the command line set to

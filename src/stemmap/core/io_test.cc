@@ -59,5 +59,21 @@ TEST(Io, NumbersBeyondAnIntAreRefused) {
   EXPECT_EQ(ReadJsonFile(path)["x_m"].get<double>(), 2500.0);
 }
 
+// Keys an options file has that no option has are found at any depth; a file an earlier run saved
+// (perhaps another version's) is read with them ignored, one the user gave is refused.
+TEST(Io, UnknownOptionKeysAreRefusedOrIgnored) {
+  const nlohmann::json known = {{"a", 1}, {"b", {{"c", 2}, {"d", {3, 4}}}}};
+  const fs::path path = "opts.json";
+  EXPECT_NO_THROW(CheckNoUnknownKeys(path, {{"b", {{"c", 5}}}}, known, UnknownOptionKeys::kRefuse));
+  const nlohmann::json typo = {{"a", 1}, {"b", {{"cc", 2}}}};
+  try {
+    CheckNoUnknownKeys(path, typo, known, UnknownOptionKeys::kRefuse);
+    ADD_FAILURE() << "refused nothing";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("'b.cc'"), std::string::npos) << e.what();
+  }
+  EXPECT_NO_THROW(CheckNoUnknownKeys(path, typo, known, UnknownOptionKeys::kWarn));
+}
+
 }  // namespace
 }  // namespace stemmap

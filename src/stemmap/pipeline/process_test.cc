@@ -104,5 +104,29 @@ TEST(ProcessOptions, AnOptionsFileOfTheWrongShapeIsAnInputError) {
   }
 }
 
+// A key that no option has, misspelt or at the wrong level (a `track` file's keys inside "track"
+// where `track` wants them at the top), is refused by name rather than dropped for the default.
+TEST(ProcessOptions, AKeyThatIsNoOptionIsRefusedByName) {
+  for (const auto& [text, name] :
+       {std::pair<const char*, const char*>{R"({"plot_radius": 15})", "'plot_radius'"},
+        {R"({"track": {"bundle": {"sigma_mount": 0.2}}})", "'track.bundle.sigma_mount'"},
+        {R"({"measure": {"tangent": {"min_rays": 5}}, "trak": {}})", "'trak'"}}) {
+    WriteFileAtomic(OptionsDir() / "typo.json", text);
+    try {
+      ReadOptionsJson<ProcessOptions>(OptionsDir() / "typo.json");
+      ADD_FAILURE() << text << " was read";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(name), std::string::npos) << e.what();
+    }
+  }
+  WriteFileAtomic(OptionsDir() / "nested.json",
+                  R"({"track": {"bundle": {"sigma_mount_deg": 0.2}}})");
+  EXPECT_EQ(
+      ReadOptionsJson<ProcessOptions>(OptionsDir() / "nested.json").track.bundle.sigma_mount_deg,
+      0.2);
+  WriteFileAtomic(OptionsDir() / "track.json", R"({"track": {"focal": "fixed"}})");
+  EXPECT_THROW(ReadOptionsJson<track::TrackOptions>(OptionsDir() / "track.json"), InputError);
+}
+
 }  // namespace
 }  // namespace stemmap::pipeline
