@@ -86,10 +86,7 @@ const nlohmann::json* FindHugeNumber(const nlohmann::json& j) {
   return nullptr;
 }
 
-}  // namespace
-
-namespace {
-
+// Adds to `out` the dotted paths of the keys of `given` that `known` lacks, below `prefix`.
 void AddUnknownKeys(const nlohmann::json& given, const nlohmann::json& known,
                     const std::string& prefix, std::vector<std::string>* out) {
   for (const auto& [key, value] : given.items()) {
