@@ -289,6 +289,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
   o.Check();
   FrontendResult r;
   r.info = reader.info();
+  r.readout_s = 1e-3 * o.readout_ms;
   const int stride = FrameStride(r.info.fps, o.track_fps);
   const double step_rad = o.keyframe_step_deg * M_PI / 180.0;
   const cv::Size win(o.lk_window_px, o.lk_window_px);
@@ -307,6 +308,7 @@ FrontendResult RunFrontend(const FrontendOptions& o, VideoReader& reader,
     Keyframe kf;
     kf.frame = frame;
     kf.t_s = t_s;
+    kf.picture_px_per_s = {tr.frame_vel.x, tr.frame_vel.y};
     kf.gray = gray.clone();  // `gray` is the next frame's buffer
     features.Add(r.keyframes.size(), kf.gray, {tr.frame_vel.x, tr.frame_vel.y});
     if (o.keep_keyframe_images) {

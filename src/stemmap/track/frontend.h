@@ -75,6 +75,9 @@ struct Keyframe {
   cv::Mat orb_descriptors;
   // Long near-vertical line segments (x0, y0, x1, y1, working px): trunk edges, for "up".
   std::vector<cv::Vec4f> vertical_segments;
+  // The picture's median velocity when it was taken (working px/s): moves what is found in it
+  // later (a loop's ORB matches) to the frame's time under a rolling shutter.
+  Eigen::Vector2d picture_px_per_s = Eigen::Vector2d::Zero();
   cv::Mat gray;       // working resolution, always (observations are refined on it)
   cv::Mat bgr;        // working resolution, when FrontendOptions::keep_keyframe_images
   cv::Mat gray_full;  // full resolution, when kept and the reader returns it
@@ -95,6 +98,7 @@ struct FrontendResult {
   int tracked_frames = 0;
   int dark_frames = 0;
   cv::Size working_size;
+  double readout_s = 0.0;         // the rolling shutter's readout (FrontendOptions::readout_ms)
   std::vector<double> frame_t_s;  // every decoded frame
   std::vector<Keyframe> keyframes;
   std::vector<Track> tracks;               // only tracks seen in two or more keyframes

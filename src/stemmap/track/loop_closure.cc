@@ -126,7 +126,10 @@ void MergeLoopTracks(const LoopOptions& o, FrontendResult& f, LoopResult& loop) 
   const int n_tracks = static_cast<int>(f.tracks.size());
   std::vector<std::vector<std::pair<int, Eigen::Vector2d>>> by_kf(f.keyframes.size());
   for (int t = 0; t < n_tracks; ++t) {
-    for (const Observation& ob : f.tracks[t].obs) by_kf[ob.keyframe].emplace_back(t, ob.px);
+    // Where the pictures show them: the ORB keypoints are found in the pictures.
+    for (const Observation& ob : f.tracks[t].obs) {
+      by_kf[ob.keyframe].emplace_back(t, ob.px + ob.picture_offset_px);
+    }
   }
   std::vector<int> parent(n_tracks);
   std::iota(parent.begin(), parent.end(), 0);
@@ -143,7 +146,11 @@ void MergeLoopTracks(const LoopOptions& o, FrontendResult& f, LoopResult& loop) 
           ++loop.merged_tracks;
         }
       } else {
-        extra[te].push_back({p.late, pl});
+        // At the frame's time, as the tracks' observations are (a rolling shutter), with the
+        // picture's velocity: the keypoint's own is not known.
+        const Eigen::Vector2d at = AtFrameTime(pl, f.keyframes[p.late].picture_px_per_s,
+                                               f.readout_s, f.working_size.height);
+        extra[te].push_back({p.late, at, pl - at});
         ++loop.extended_tracks;
       }
     }
