@@ -60,6 +60,15 @@ std::filesystem::path ScratchDir(const std::string& name) {
   return dir;
 }
 
+// The test clips' format: 320×240 at 15 fps.
+VideoWriterOptions QvgaAt15Fps() {
+  VideoWriterOptions wo;
+  wo.width = 320;
+  wo.height = 240;
+  wo.fps = 15;
+  return wo;
+}
+
 std::filesystem::path PanningClip(const std::filesystem::path& dir) {
   cv::RNG rng(7);
   cv::Mat wall(360, 2400, CV_8UC3);
@@ -68,10 +77,7 @@ std::filesystem::path PanningClip(const std::filesystem::path& dir) {
   for (int x = 40; x < wall.cols - 60; x += 90) {
     cv::rectangle(wall, cv::Rect(x, 0, 30, wall.rows), cv::Scalar(30, 40, 45), cv::FILLED);
   }
-  VideoWriterOptions wo;
-  wo.width = 320;
-  wo.height = 240;
-  wo.fps = 15;
+  const VideoWriterOptions wo = QvgaAt15Fps();
   const std::filesystem::path path = dir / "pan.mp4";
   VideoWriter writer(path, wo);
   for (int i = 0; i < 60; ++i) writer.Write(wall(cv::Rect(20 + 12 * i, 60, 320, 240)).clone());
@@ -130,10 +136,7 @@ std::filesystem::path RollingShutterClip(const std::filesystem::path& dir, doubl
     rng.fill(*wall, cv::RNG::UNIFORM, 0, 256);
     cv::GaussianBlur(*wall, *wall, cv::Size(5, 5), 1.2);
   }
-  VideoWriterOptions wo;
-  wo.width = 320;
-  wo.height = 240;
-  wo.fps = 15;
+  const VideoWriterOptions wo = QvgaAt15Fps();
   const std::filesystem::path path = dir / "rolling.mp4";
   VideoWriter writer(path, wo);
   for (int i = 0; i < 30; ++i) {
