@@ -25,6 +25,9 @@ void GroundOptions::Check() const {
     throw InputError("the ground filter's rise and slope must not be negative");
   }
   if (!(fill_radius_m >= 0)) throw InputError("the ground fill radius must not be negative");
+  if (!(fill_slope_prior >= 0)) {
+    throw InputError("the weight of the plot's slope in the ground fill must not be negative");
+  }
   if (!(max_floor_at_view_bottom >= 0 && max_floor_at_view_bottom <= 1)) {
     throw InputError("the share of a cell's floor cut off by the frame must lie in [0, 1]");
   }
@@ -280,6 +283,14 @@ void GroundGrid::FillFromGroundCells(const std::vector<char>& is_ground) {
         ++near;
       }
     }
+    // The local slope leans on the plot's, as much as fill_slope_prior ground cells around
+    // would: carried metres from the nearest ground seen (under the tripod, where the camera sees
+    // none), the slope of a few cells on one side, tilted by their bumps, would tilt the height.
+    // (With weights 1/d², each cell adds about one to the slope's terms, wherever it lies.)
+    local_ata(0, 0) += o_.fill_slope_prior;
+    local_ata(1, 1) += o_.fill_slope_prior;
+    local_atb(0) += o_.fill_slope_prior * plane.x();
+    local_atb(1) += o_.fill_slope_prior * plane.y();
     // Ground cells on one side only, or too few, tilt a local plane: the plot's plane instead.
     const Eigen::LDLT<Eigen::Matrix3d> local(local_ata);
     const bool spread = near >= 6 && local_ata.determinant() > 1e-9 * std::pow(local_ata(2, 2), 3);

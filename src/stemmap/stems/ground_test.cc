@@ -86,6 +86,18 @@ std::vector<dense::CloudPoint> Understory(const Terrain& t, double cover, Rng* r
   return cloud;
 }
 
+// The grid's ground at each stem within 10 cm of the terrain's, and within 5 cm rms.
+void ExpectGroundAtStems(const GroundGrid& grid, const Terrain& terrain,
+                         const std::vector<Eigen::Vector3d>& stems) {
+  double sum_sq = 0.0;
+  for (const Eigen::Vector3d& s : stems) {
+    const double e = grid.Height(s.x(), s.y()) - terrain.Height(s.x(), s.y());
+    EXPECT_LT(std::abs(e), 0.1) << "stem at " << s.transpose();
+    sum_sq += e * e;
+  }
+  EXPECT_LT(std::sqrt(sum_sq / stems.size()), 0.05);
+}
+
 // The ground at each stem, under shrubs and on mounds, over covers and slopes.
 TEST(GroundGrid, TheGroundAtEachStemUnderUnderstory) {
   for (double cover : {0.3, 0.6}) {
@@ -97,13 +109,7 @@ TEST(GroundGrid, TheGroundAtEachStemUnderUnderstory) {
         const Terrain terrain = MakeTerrain(&rng, slope_deg, 0.0);
         std::vector<Eigen::Vector3d> stems;
         const GroundGrid grid(Understory(terrain, cover, &rng, &stems), 13);
-        double sum_sq = 0.0;
-        for (const Eigen::Vector3d& s : stems) {
-          const double e = grid.Height(s.x(), s.y()) - terrain.Height(s.x(), s.y());
-          EXPECT_LT(std::abs(e), 0.1) << "stem at " << s.transpose();
-          sum_sq += e * e;
-        }
-        EXPECT_LT(std::sqrt(sum_sq / stems.size()), 0.05);
+        ExpectGroundAtStems(grid, terrain, stems);
       }
     }
   }
@@ -114,8 +120,9 @@ TEST(GroundGrid, TheGroundAtEachStemUnderUnderstory) {
 // stem's bark and shrub's leaves only down to where that edge cuts them, and the ground beyond;
 // what lies at the edge is marked at_view_bottom.
 std::vector<dense::CloudPoint> NearTheTripod(const Terrain& t, double camera_z, Rng* rng,
-                                             std::vector<Eigen::Vector3d>* stems) {
-  const double tan_edge = std::tan(20.0 * M_PI / 180.0), arm_m = 1.0;
+                                             std::vector<Eigen::Vector3d>* stems,
+                                             double edge_dip_deg = 20.0) {
+  const double tan_edge = std::tan(edge_dip_deg * M_PI / 180.0), arm_m = 1.0;
   const double eye_z = t.Height(0, 0) + camera_z;
   // The lowest height the nearest camera sees at `r` from the centre.
   auto lowest_seen = [&](double r) { return eye_z - (r - arm_m) * tan_edge; };
@@ -199,6 +206,31 @@ TEST(GroundGrid, TheGroundAtAStemNearTheTripodIsNotItsLowestBark) {
   }
 }
 
+// The same where the view's bottom edge dips less (14°: the ground shows from ~6 m out) and the
+// ground seen is uneven at the scale of a metre (bumps of up to ±7 cm, 0.6-1.5 m wide, as on
+// managed plots, from 6.5 m out) on a gentle slope: the nearest ground seen lies on one side of a
+// stem near the tripod, 4-5 m from it, and its bumps must not tilt the ground carried in.
+TEST(GroundGrid, TheGroundAtAStemNearTheTripodDoesNotTiltWithBumpsBeyond) {
+  for (double slope_deg : {0.0, 3.0}) {
+    for (uint64_t seed : {5, 6, 7}) {
+      SCOPED_TRACE(::testing::Message() << "slope " << slope_deg << "°, seed " << seed);
+      Rng rng(seed);
+      Terrain terrain = MakeTerrain(&rng, slope_deg, 12.0);
+      terrain.bumps.clear();
+      for (int i = 0; i < 120; ++i) {
+        const double b = rng.Uniform(0, 2 * M_PI), r = rng.Uniform(6.5, 13.0);
+        terrain.bumps.emplace_back(r * std::cos(b), r * std::sin(b), rng.Uniform(-0.07, 0.07),
+                                   rng.Uniform(0.6, 1.5));
+      }
+      std::vector<Eigen::Vector3d> stems;
+      const std::vector<dense::CloudPoint> cloud =
+          NearTheTripod(terrain, 1.32, &rng, &stems, /*edge_dip_deg=*/14.0);
+      const GroundGrid grid(cloud, 13);
+      ExpectGroundAtStems(grid, terrain, stems);
+    }
+  }
+}
+
 // Under the tripod the camera sees no ground within ~3.5 m: the ground around is carried in, which
 // holds where the terrain is smooth over that disc (a slope; mounds and hollows farther out). A
 // mound or hollow under the tripod is out of sight: --camera-height is the answer to it.
@@ -224,7 +256,7 @@ TEST(GroundGrid, TheGroundUnderTheTripodFromTheGroundAround) {
 }
 
 // The view-bottom and see-under options out of their range are input errors.
-TEST(GroundOptions, CutOffAndSeenUnderOptionsOutOfRangeAreRefused) {
+TEST(GroundOptions, CutOffSeenUnderAndFillOptionsOutOfRangeAreRefused) {
   auto refused = [](auto change) {
     GroundOptions o;
     change(&o);
@@ -241,6 +273,7 @@ TEST(GroundOptions, CutOffAndSeenUnderOptionsOutOfRangeAreRefused) {
   EXPECT_TRUE(refused([](GroundOptions* o) { o->min_rays_under_floor = -1; }));
   EXPECT_TRUE(refused([](GroundOptions* o) { o->max_pass_under_floor_m = -0.1; }));
   EXPECT_TRUE(refused([](GroundOptions* o) { o->pass_end_clearance_m = -1; }));
+  EXPECT_TRUE(refused([](GroundOptions* o) { o->fill_slope_prior = -1; }));
 }
 
 }  // namespace

@@ -174,6 +174,18 @@ TEST(MeasureTrees, AStemBehindANearerOneIsListedAtEveryOffset) {
   }
 }
 
+// A stem the arm passes close by (its bark 0.6-1.1 m from the camera): seen large, in few
+// views, its section reaching far across the picture.
+TEST(MeasureTrees, AStemCloseToTheArmIsListed) {
+  for (const double gap_m : {0.6, 1.1}) {
+    for (const double r_m : {0.08, 0.15}) {
+      SCOPED_TRACE(::testing::Message() << "bark " << gap_m << " m from the arm, radius " << r_m);
+      const std::vector<Eigen::Vector3d> truth = {{1.0 + gap_m + r_m, 0.2, r_m}};
+      ExpectListed(truth, Measure(MakeScene(truth)));
+    }
+  }
+}
+
 TEST(MeasureTrees, NoStemsInAnEmptyPlotAndMissingInputsAreRefused) {
   const Scene s = MakeScene({});
   EXPECT_TRUE(Measure(s).trees.empty());
