@@ -255,7 +255,7 @@ TEST(GroundGrid, TheGroundUnderTheTripodFromTheGroundAround) {
   }
 }
 
-// The view-bottom and see-under options out of their range are input errors.
+// The view-bottom, see-under and fill options out of their range are input errors.
 TEST(GroundOptions, CutOffSeenUnderAndFillOptionsOutOfRangeAreRefused) {
   auto refused = [](auto change) {
     GroundOptions o;

@@ -71,6 +71,11 @@ TEST(MeasureOptions, TheSilhouettesSettingsAreChecked) {
   o = MeasureOptions();
   o.tangent.blur_sigma_px = -1;
   EXPECT_EQ(CheckMessage(o), "the silhouettes' blur must not be negative");
+  o = MeasureOptions();
+  o.tangent.max_bands_each_side = 0;
+  EXPECT_EQ(CheckMessage(o),
+            "the silhouettes' bands need at least one row, and one band on each side, within 1 m "
+            "of breast height");
 }
 
 // A rendered scene and the cloud its keyframes' stereo would give: points on the part of each

@@ -20,8 +20,11 @@ void TangentOptions::Check() const {
   if (!(background_parallax_px > 0 && max_neighbour_offset >= 1)) {
     throw InputError("the silhouettes' neighbour views need a positive parallax and offset");
   }
-  if (!(rows_half >= 1 && band_half_height_m > 0 && band_half_height_m < 1)) {
-    throw InputError("the silhouettes' bands need at least one row, within 1 m of breast height");
+  if (!(rows_half >= 1 && band_half_height_m > 0 && band_half_height_m < 1 &&
+        max_bands_each_side >= 1)) {
+    throw InputError(
+        "the silhouettes' bands need at least one row, and one band on each side, within 1 m of "
+        "breast height");
   }
   if (!(search_px > 0 && search_share >= 0)) {
     throw InputError("the silhouettes' search must reach beyond the predicted edges");
@@ -170,16 +173,25 @@ ViewRays MeasureView(const TangentOptions& o, const TangentViews& v, const Eigen
   const Eigen::Vector2d p_img = cam.ImageFromCam(p_cam);
   if (p_img.x() < 0.08 * cam.width || p_img.x() > 0.92 * cam.width) return out;
   const Eigen::Vector2d u = to_stem / d;
-  // Bands of rows, apart by their own height, within band_half_height_m of breast height.
+  // Bands of rows, apart by their own height, within band_half_height_m of breast height; for a
+  // near stem, seen large, at most max_bands_each_side on each side, spread over that height.
   const double px_per_m = cam.fx / p_cam.z();
-  const double band_step_m = (2 * o.rows_half + 1) / px_per_m;
-  const int bands = std::max(0, static_cast<int>(o.band_half_height_m / band_step_m));
+  double band_step_m = (2 * o.rows_half + 1) / px_per_m;
+  int bands = std::max(0, static_cast<int>(o.band_half_height_m / band_step_m));
+  if (bands > o.max_bands_each_side) {
+    bands = o.max_bands_each_side;
+    band_step_m = o.band_half_height_m / bands;
+  }
   std::vector<double> edge_y[2], edge_x[2];
   out.tried = true;
   const std::vector<Eigen::Vector3d> front = FrontOccluders(o, v, cc, u, d, r);
   std::array<bool, 2> hidden = {false, false};  // at breast height
+  int in_frame = 0;                             // bands whose rows the picture holds
   for (int j = -bands; j <= bands; ++j) {
     const double z = breast_z + j * band_step_m;
+    const double y = cam.ImageFromCam(cam_from_world * Eigen::Vector3d(c.x(), c.y(), z)).y();
+    if (y - o.rows_half < 1 || y + o.rows_half > cam.height - 2) continue;
+    ++in_frame;
     // Predicted silhouettes at this height, and the nearer stems' beside them.
     std::array<double, 2> xs;
     if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, z, &xs)) continue;
@@ -193,12 +205,13 @@ ViewRays MeasureView(const TangentOptions& o, const TangentViews& v, const Eigen
     const EdgeWindow window = WindowBesideOccluders(
         occluder_cols, xs[0], xs[1], std::max(0.25 * o.search_px, 0.1 * (xs[1] - xs[0])));
     if (j == 0) hidden = window.hidden;
-    const double y = cam.ImageFromCam(cam_from_world * Eigen::Vector3d(c.x(), c.y(), z)).y();
     const Edges e = FindEdges(o, v, static_cast<int>(k), c, r, z, xs[0], xs[1], y, window);
     if (e.left) edge_y[0].push_back(y), edge_x[0].push_back(e.x_left);
     if (e.right) edge_y[1].push_back(y), edge_x[1].push_back(e.x_right);
   }
-  const int min_points = std::max(1, (2 * bands + 1 + 1) / 2);
+  // Each side's line through more than half of the bands the picture holds, and at least three.
+  if (in_frame < 3) return out;
+  const int min_points = (in_frame + 1) / 2;
   out.origin = cc;
   out.y = p_img.y();
   out.heading = std::atan2(-u.y(), -u.x());

@@ -31,6 +31,9 @@ struct TangentOptions {
   int rows_half = 4;  // rows averaged per band
   // Bands of rows within this height of breast height; each silhouette is a line through them.
   double band_half_height_m = 0.35;
+  // At most this many bands above and below breast height: a near stem's bands, spread over that
+  // height, still give each silhouette's line (a stem 2 m away would have 13 on each side).
+  int max_bands_each_side = 8;
   double search_px = 8.0;     // beyond the predicted edges, at least
   double search_share = 0.8;  // and this share of the predicted half-width
   double min_contrast = 6.0;  // grey levels between stem and background disagreement
@@ -114,7 +117,7 @@ struct TangentOptions {
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TangentOptions, background_parallax_px, max_neighbour_offset, rows_half, band_half_height_m,
-    search_px, search_share, min_contrast, min_brightness_contrast, huber_m,
+    max_bands_each_side, search_px, search_share, min_contrast, min_brightness_contrast, huber_m,
     prior_share_of_distance, min_rays, max_sideways_m, occluder_min_gap_m, refits,
     wide_start_scales, recheck_wider_scale, recheck_min_gain, recheck_rms_slack_px,
     narrow_start_scales, narrow_max_rms_px, narrow_min_share, sideways_start_shifts,

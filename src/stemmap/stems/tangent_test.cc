@@ -184,6 +184,28 @@ TEST(Tangent, FitsARenderedStem) {
   }
 }
 
+// A stem the arm passes close by (its bark 0.8 m from the camera), measured a little above the
+// camera (a ground estimate too low, or a stem downhill): seen that close, the bands within
+// 0.35 m of breast height reach beyond the picture's top, and the silhouettes rest on the bands
+// it holds.
+TEST(Tangent, FitsANearStemWhoseBandsReachBeyondThePicture) {
+  const Eigen::Vector2d centre(1.92, 0.2);
+  const double radius = 0.12;
+  const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}}, true);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  for (const double breast_z : {1.3, 1.55}) {
+    SCOPED_TRACE(::testing::Message() << "breast height at z " << breast_z);
+    const TangentFit fit =
+        FitTangentRays(TangentOptions().ForImageScale(640.0 / 960.0), views, centre, 0.1, breast_z);
+    ASSERT_TRUE(fit.ok);
+    // Within 1.5 cm (a near stem's fit from a narrow start comes out 0.7-1 cm narrow here); when
+    // every band counted, out of the picture or not, the higher breast height read 4.4 cm.
+    EXPECT_NEAR(fit.radius_m, radius, 0.015);
+    EXPECT_LT((fit.centre - centre).norm(), 0.03);
+    EXPECT_GE(fit.two_sided_views, 3);
+  }
+}
+
 // Views are measured in parallel and gathered in keyframe order: the threads change nothing.
 TEST(Tangent, TheFitDoesNotDependOnTheThreads) {
   const Eigen::Vector2d centre(6.0, 0.3);
