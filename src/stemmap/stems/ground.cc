@@ -25,8 +25,10 @@ void GroundOptions::Check() const {
     throw InputError("the ground filter's rise and slope must not be negative");
   }
   if (!(fill_radius_m >= 0)) throw InputError("the ground fill radius must not be negative");
-  if (!(fill_slope_prior >= 0)) {
-    throw InputError("the weight of the plot's slope in the ground fill must not be negative");
+  if (!(fill_one_sided_m > 0 && fill_slope_prior >= 0)) {
+    throw InputError(
+        "the ground fill's one-sided distance must be positive, the plot slope's weight not "
+        "negative");
   }
   if (!(max_floor_at_view_bottom >= 0 && max_floor_at_view_bottom <= 1)) {
     throw InputError("the share of a cell's floor cut off by the frame must lie in [0, 1]");
@@ -283,19 +285,29 @@ void GroundGrid::FillFromGroundCells(const std::vector<char>& is_ground) {
         ++near;
       }
     }
-    // The local slope leans on the plot's, as much as fill_slope_prior ground cells around
-    // would: carried metres from the nearest ground seen (under the tripod, where the camera sees
-    // none), the slope of a few cells on one side, tilted by their bumps, would tilt the height.
-    // (With weights 1/d², each cell adds about one to the slope's terms, wherever it lies.)
-    local_ata(0, 0) += o_.fill_slope_prior;
-    local_ata(1, 1) += o_.fill_slope_prior;
-    local_atb(0) += o_.fill_slope_prior * plane.x();
-    local_atb(1) += o_.fill_slope_prior * plane.y();
     // Ground cells on one side only, or too few, tilt a local plane: the plot's plane instead.
     const Eigen::LDLT<Eigen::Matrix3d> local(local_ata);
     const bool spread = near >= 6 && local_ata.determinant() > 1e-9 * std::pow(local_ata(2, 2), 3);
-    filled[c] = static_cast<float>(spread ? local.solve(local_atb).z()
-                                          : plane.x() * xy.x() + plane.y() * xy.y() + plane.z());
+    if (!spread) {
+      filled[c] = static_cast<float>(plane.x() * xy.x() + plane.y() * xy.y() + plane.z());
+      continue;
+    }
+    // Their weighted centre metres away on one side (under the tripod, where the camera sees no
+    // ground): the slope of those few cells, tilted by their bumps, would tilt the height carried
+    // in. There the local slope leans on the plot's, as much as fill_slope_prior cells around
+    // would (with weights 1/d², each cell adds about one to the slope's terms, wherever it lies).
+    const Eigen::Vector2d towards(local_ata(0, 2), local_ata(1, 2));
+    if (towards.norm() > o_.fill_one_sided_m * local_ata(2, 2)) {
+      Eigen::Matrix3d ata = local_ata;
+      Eigen::Vector3d atb = local_atb;
+      ata(0, 0) += o_.fill_slope_prior;
+      ata(1, 1) += o_.fill_slope_prior;
+      atb(0) += o_.fill_slope_prior * plane.x();
+      atb(1) += o_.fill_slope_prior * plane.y();
+      filled[c] = static_cast<float>(ata.ldlt().solve(atb).z());
+      continue;
+    }
+    filled[c] = static_cast<float>(local.solve(local_atb).z());
   }
   z_ = std::move(filled);
 }

@@ -43,9 +43,11 @@ struct GroundOptions {
   // under a wide shrub) take the plane through the ground cells within this (m), weighted by
   // inverse squared distance, else the plane through all ground cells.
   double fill_radius_m = 5.0;
-  // The local plane's slope leans on the plane through all ground cells with the weight of this
-  // many ground cells around (0: not at all): carried from ground seen 4-6 m away on one side,
-  // as under the tripod, a local slope tilted by bumps would put a near stem's ground 10 cm off.
+  // Where the ground cells' centre (weighted as above) lies farther than fill_one_sided_m from
+  // the cell, all on one side (under the tripod, 3-6 m from the ground seen), the local slope
+  // leans on the plot's with the weight of fill_slope_prior ground cells around: the slope of a
+  // few cells on one side, tilted by their bumps, would put a near stem's ground 10-30 cm off.
+  double fill_one_sided_m = 2.5;
   double fill_slope_prior = 10.0;
   // The ground under the tripod (AxisHeight) is the plane through the ground cells within this
   // (m): nearer ones alone, seen from 3.5 m out, would carry a mound beside the tripod into it.
@@ -57,7 +59,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(GroundOptions, cell_m, min_cell_
                                                 max_floor_at_view_bottom, min_rays_under_floor,
                                                 max_pass_under_floor_m, pass_end_clearance_m,
                                                 windows_m, min_rise_m, max_slope, fill_radius_m,
-                                                fill_slope_prior, axis_plane_radius_m)
+                                                fill_one_sided_m, fill_slope_prior,
+                                                axis_plane_radius_m)
 
 // Terrain under the plot: a grid of ground heights from each cell's floor, with what stands on
 // the ground (shrubs, sapling crowns, dead wood) filtered out by a progressive morphological

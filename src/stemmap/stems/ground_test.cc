@@ -273,6 +273,7 @@ TEST(GroundOptions, CutOffSeenUnderAndFillOptionsOutOfRangeAreRefused) {
   EXPECT_TRUE(refused([](GroundOptions* o) { o->min_rays_under_floor = -1; }));
   EXPECT_TRUE(refused([](GroundOptions* o) { o->max_pass_under_floor_m = -0.1; }));
   EXPECT_TRUE(refused([](GroundOptions* o) { o->pass_end_clearance_m = -1; }));
+  EXPECT_TRUE(refused([](GroundOptions* o) { o->fill_one_sided_m = 0; }));
   EXPECT_TRUE(refused([](GroundOptions* o) { o->fill_slope_prior = -1; }));
 }
 
