@@ -54,6 +54,10 @@ void StemOptions::Check() const {
   if (!(confirm_lean_deg > 0 && confirm_lean_deg <= max_lean_deg)) {
     throw InputError("the lean that needs confirming must lie in (0, max_lean_deg]");
   }
+  if (!(lean_circle_max_off_share > 0)) {
+    throw InputError(
+        "the share of the radius within which a third's points lie on its circle must be positive");
+  }
   if (!(lean_slice_min_points >= 2 && lean_slice_min_share >= 0 && lean_slice_min_share <= 1)) {
     throw InputError(
         "a third of the band holds a surface with at least 2 points (lean_slice_min_points) and "
@@ -332,6 +336,36 @@ struct Band {
   const std::vector<double>& height_m;
 };
 
+// The centre of the circle of radius r through `pts` (robust least squares on the distances,
+// from c0: points off it by more than a third of r, smeared or stray, weigh less), and the
+// median of their distances from it.
+Eigen::Vector2d CentreOfCircle(const std::vector<Eigen::Vector2d>& pts, double r,
+                               Eigen::Vector2d c0, double* median_off_m) {
+  const double huber_m = r / 3;
+  for (int it = 0; it < 10; ++it) {
+    // Gauss-Newton on e_i = |p_i - c| - r, whose gradient in c is -(p_i - c) / |p_i - c|.
+    Eigen::Matrix2d jtj = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d jte = Eigen::Vector2d::Zero();
+    for (const Eigen::Vector2d& p : pts) {
+      const Eigen::Vector2d d = p - c0;
+      const double n = d.norm();
+      if (n < 1e-9) continue;
+      const double e = n - r, w = std::abs(e) < huber_m ? 1.0 : huber_m / std::abs(e);
+      const Eigen::Vector2d j = -d / n;
+      jtj += w * j * j.transpose();
+      jte += w * j * e;
+    }
+    if (std::abs(jtj.determinant()) < 1e-12) break;
+    const Eigen::Vector2d step = -jtj.ldlt().solve(jte);
+    c0 += step;
+    if (step.norm() < 1e-5) break;
+  }
+  std::vector<double> off;
+  for (const Eigen::Vector2d& p : pts) off.push_back(std::abs((p - c0).norm() - r));
+  *median_off_m = off.empty() ? 0.0 : Quantile(off, 0.5);
+  return c0;
+}
+
 // One part of the band as a stem: centre, widths, lean and support; nullopt (counted in `tally`)
 // when it is no stem. A `smeared` part is measured across the line of sight whatever its spread
 // along it (a core of a smeared part: its depth is as noisy as the whole's). A part the
@@ -369,12 +403,14 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   const double core_m = r0 + 0.25;
   std::array<Eigen::Vector3d, 3> sum;
   std::array<int, 3> cnt = {0, 0, 0};
+  std::array<std::vector<Eigen::Vector2d>, 3> slice_xy;
   sum.fill(Eigen::Vector3d::Zero());
   for (int i : m) {
     const Eigen::Vector2d xy(b.points[i]->world.x(), b.points[i]->world.y());
     const int s = static_cast<int>(std::floor((b.height_m[i] - o.band_low_m) / third));
     if ((xy - c0).norm() > core_m || s < 0 || s > 2) continue;
     sum[s] += Eigen::Vector3d(xy.x(), xy.y(), b.height_m[i]);
+    slice_xy[s].push_back(xy);
     ++cnt[s];
   }
   const int most = *std::ranges::max_element(cnt);
@@ -382,6 +418,17 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   for (int s = 0; s < 3; ++s) {
     if (cnt[s] >= o.lean_slice_min_points && cnt[s] + 1e-9 >= o.lean_slice_min_share * most) {
       cent.push_back(sum[s] / cnt[s]);
+      // Each third's centre is the stem's circle placed on its points: a near trunk shows each
+      // height from other arm positions (the frame's bottom edge cuts the lower bark from the
+      // nearest ones), so the arcs differ, and their centroids with them, by most of its radius.
+      // Started behind the arc's centroid, away from the cameras near the plot centre (a
+      // circle of a given radius fits an arc from either side). Where the third's points lie on
+      // it (a far stem's are smeared along the line of sight), it replaces the centroid.
+      const Eigen::Vector2d centroid = cent.back().head<2>();
+      double off_m = 0.0;
+      const Eigen::Vector2d centre =
+          CentreOfCircle(slice_xy[s], r0, centroid + 0.64 * r0 * centroid.normalized(), &off_m);
+      if (off_m < o.lean_circle_max_off_share * r0) cent.back().head<2>() = centre;
     }
   }
   double lean_deg = 90.0;

@@ -54,6 +54,10 @@ struct StemOptions {
   // where a near stem's top is out of view).
   int lean_slice_min_points = 5;
   double lean_slice_min_share = 0.1;
+  // A third's centre is the circle of the part's radius through its points where half of them lie
+  // on it within this share of the radius, else their centroid: a near trunk shows each height on
+  // another arc, whose centroids stand apart by most of its radius.
+  double lean_circle_max_off_share = 0.25;
   double slice_half_m = 0.05;  // breast-height slice: ±5 cm (the paper's 0.1 m)
   // Rays through the stem over rays ending on it, above which it is no stem. Stereo smears a thin
   // stem's points beside it, and rays to what stands behind graze its part: real stems' parts
@@ -72,7 +76,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     split_wide_parts, split_by_bearing, max_depth_smear_m, split_gap_m, split_parts_into_cores,
     split_range_gap_m, min_points, min_slice_support_m2, weak_support_share, min_diameter_m,
     max_diameter_m, max_lean_deg, confirm_lean_deg, lean_slice_min_points, lean_slice_min_share,
-    slice_half_m, free_space_veto, dbh_method)
+    lean_circle_max_off_share, slice_half_m, free_space_veto, dbh_method)
 
 // What a reader of the tree list should know about how a stem was measured (trees.csv `flags`).
 enum class StemFlag : uint8_t {

@@ -278,6 +278,33 @@ TEST(Stems, NearTrunkWithStrayPointsAboveIsVertical) {
   EXPECT_LT(res.stems[0].lean_deg, 5.0);
 }
 
+// A trunk the arm passes close by: each height of it is seen from other arm positions (the
+// frame's bottom edge cuts the lower bark from the nearest ones), so the arcs of its surface that
+// the band's thirds hold face different ways, and their centroids stand apart by most of its
+// radius. The trunk is upright: its lean comes from the thirds' circles, not their centroids.
+TEST(Stems, ANearTrunkSeenOnOtherArcsAtEachHeightIsUpright) {
+  for (const double turn : {0.5, 0.9}) {
+    SCOPED_TRACE(::testing::Message() << "arcs " << turn << " rad apart");
+    Rng rng(8);
+    std::vector<dense::CloudPoint> cloud = FlatGround(&rng);
+    const Eigen::Vector2d c(1.37, 1.07);
+    const double r = 0.155, facing = std::atan2(-c.y(), -c.x());
+    for (int i = 0; i < 20000; ++i) {
+      const double z = rng.Uniform(1.0, 1.75);
+      // The arc seen turns with height: from `turn` / 2 one way at the bottom to the other way.
+      const double mid = facing + turn * ((z - 1.0) / 0.75 - 0.5);
+      const double a = mid + rng.Uniform(-0.9, 0.9);
+      const Eigen::Vector3d p(c.x() + r * std::cos(a), c.y() + r * std::sin(a), z);
+      cloud.push_back({p.cast<float>(), Eigen::Vector3f(0, 0, 1.3f), cv::Vec3b(80, 90, 100), 0});
+    }
+    const StemsResult res = DetectWithoutBearingSplit(cloud);
+    ASSERT_EQ(res.stems.size(), 1u);
+    EXPECT_LT((res.stems[0].centre_xy - c).norm(), 0.03);
+    EXPECT_LT(res.stems[0].lean_deg, 3.0);
+    EXPECT_FALSE(res.stems[0].weak_support);
+  }
+}
+
 // A near trunk whose breast-height slice came out flattened and bowed toward the cameras (as
 // stereo on a thin near stem can): a circle fitted to that slice alone bulges the other way, its
 // centre in front of the face. The band's circle stands instead.
