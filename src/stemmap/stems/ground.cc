@@ -286,7 +286,6 @@ void GroundGrid::FillFromGroundCells(const std::vector<char>& is_ground) {
       }
     }
     // Ground cells on one side only, or too few, tilt a local plane: the plot's plane instead.
-    const Eigen::LDLT<Eigen::Matrix3d> local(local_ata);
     const bool spread = near >= 6 && local_ata.determinant() > 1e-9 * std::pow(local_ata(2, 2), 3);
     if (!spread) {
       filled[c] = static_cast<float>(plane.x() * xy.x() + plane.y() * xy.y() + plane.z());
@@ -307,7 +306,7 @@ void GroundGrid::FillFromGroundCells(const std::vector<char>& is_ground) {
       filled[c] = static_cast<float>(ata.ldlt().solve(atb).z());
       continue;
     }
-    filled[c] = static_cast<float>(local.solve(local_atb).z());
+    filled[c] = static_cast<float>(local_ata.ldlt().solve(local_atb).z());
   }
   z_ = std::move(filled);
 }
