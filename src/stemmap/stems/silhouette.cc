@@ -91,12 +91,15 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   const double baseline_m = 3.0 * o.background_parallax_px * dist / cam.fx;
   const double half_w = 0.5 * (x_pred_right - x_pred_left);
   const double margin = std::max(o.search_px, o.search_share * half_w);
-  const int x_begin = static_cast<int>(std::floor(x_pred_left - margin));
-  const int x_end = static_cast<int>(std::ceil(x_pred_right + margin));
+  // The search stops at the picture's borders (the window ends there for a side whose edge lies
+  // beyond them); fewer columns than this leave no profile on either side of an edge.
+  constexpr int kMinColumns = 8;
+  int x_begin = std::max(1, static_cast<int>(std::floor(x_pred_left - margin)));
+  int x_end = std::min(img.cols - 2, static_cast<int>(std::ceil(x_pred_right + margin)));
   const int y_begin = static_cast<int>(std::lround(y0)) - o.rows_half;
   const int y_end = static_cast<int>(std::lround(y0)) + o.rows_half;
-  if (x_begin < 1 || x_end > img.cols - 2 || y_begin < 1 || y_end > img.rows - 2) return edges;
-  const int width = x_end - x_begin + 1;
+  if (x_end - x_begin < kMinColumns || y_begin < 1 || y_end > img.rows - 2) return edges;
+  int width = x_end - x_begin + 1;
   std::vector<double> diff(width, 0.0);
   std::vector<int> count(width, 0);
   // Where each pixel's ray meets the stem's surface (or the axis plane), shared by both
@@ -139,6 +142,20 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
       }
     }
   }
+  // Columns no neighbour shows (beyond their pictures, at this one's border) end the window; a
+  // gap inside it leaves no profile to search.
+  const int first =
+      static_cast<int>(std::ranges::find_if(count, [](int n) { return n > 0; }) - count.begin());
+  const int last =
+      width - 1 -
+      static_cast<int>(std::find_if(count.rbegin(), count.rend(), [](int n) { return n > 0; }) -
+                       count.rbegin());
+  if (last - first < kMinColumns) return edges;
+  diff = std::vector<double>(diff.begin() + first, diff.begin() + last + 1);
+  count = std::vector<int>(count.begin() + first, count.begin() + last + 1);
+  x_begin += first;
+  x_end = x_begin + static_cast<int>(count.size()) - 1;
+  width = x_end - x_begin + 1;
   for (int i = 0; i < width; ++i) {
     if (count[i] == 0) return edges;
     diff[i] /= count[i];

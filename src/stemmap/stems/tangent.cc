@@ -202,9 +202,13 @@ ViewRays MeasureView(const TangentOptions& o, const TangentViews& v, const Eigen
         occluder_cols.push_back(qs);
       }
     }
-    const EdgeWindow window = WindowBesideOccluders(
-        occluder_cols, xs[0], xs[1], std::max(0.25 * o.search_px, 0.1 * (xs[1] - xs[0])));
-    if (j == 0) hidden = window.hidden;
+    const double guard_px = std::max(0.25 * o.search_px, 0.1 * (xs[1] - xs[0]));
+    if (j == 0) hidden = WindowBesideOccluders(occluder_cols, xs[0], xs[1], guard_px).hidden;
+    // The picture's borders end the search as a nearer stem does (but hide nothing of the stem):
+    // a stem seen large shows one side in views where the other lies beyond the picture.
+    occluder_cols.push_back({-1e9, 0.0});
+    occluder_cols.push_back({cam.width - 1.0, 1e9});
+    const EdgeWindow window = WindowBesideOccluders(occluder_cols, xs[0], xs[1], guard_px);
     const Edges e = FindEdges(o, v, static_cast<int>(k), c, r, z, xs[0], xs[1], y, window);
     if (e.left) edge_y[0].push_back(y), edge_x[0].push_back(e.x_left);
     if (e.right) edge_y[1].push_back(y), edge_x[1].push_back(e.x_right);
