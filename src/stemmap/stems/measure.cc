@@ -45,6 +45,17 @@ void MeasureOptions::Check() const {
   if (!(loose_fit_rms_px > 0)) {
     throw InputError("the rms beyond which a narrower fit is loose must be positive");
   }
+  if (!(outline_over_bark_two_sided_share >= 0 && outline_over_bark_two_sided_share <= 1)) {
+    throw InputError(
+        "the two-sided share of an outline that outweighs its bark must lie in [0, 1]");
+  }
+  if (!(outline_over_bark_rms_px >= 0)) {
+    throw InputError("the rms of an outline that outweighs its bark must not be negative");
+  }
+  if (!(outline_over_bark_cloud_share >= 0)) {
+    throw InputError(
+        "the cloud's share within which an outline outweighs its bark must not be negative");
+  }
   if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
     throw InputError(
         "the share of a part's width below which its cores are tried must lie in [0, 1]");

@@ -70,6 +70,15 @@ struct MeasureOptions {
   // furrows, a shadow's border, a neighbour's edge in some views), and the points' width,
   // measured on the stem's surface, stands.
   double loose_fit_rms_px = 3.0;
+  // Bark that correlates nowhere between views (leaves, or their shadows, across it from view to
+  // view) does not outweigh a whole outline: a fit two-sided in at least this share of the views
+  // that tried it, its rays on one circle to this many pixels (rms, px at the stem), its radius
+  // within this share of the cloud's, stands where its bark correlates under
+  // BarkDepthOptions::min_surface_ncc at every distance; not where the bark lines up best at the
+  // end of the search (the circle lies away from the bark it encloses).
+  double outline_over_bark_two_sided_share = 0.5;
+  double outline_over_bark_rms_px = 1.2;
+  double outline_over_bark_cloud_share = 0.2;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -78,7 +87,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, ground, uncertainty, require_silhouette,
     keep_bark_confirmed_cloud, one_sided_max_over_cloud, one_sided_min_cloud_radius_m,
     min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
-    larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px)
+    larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
+    outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

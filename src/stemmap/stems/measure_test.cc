@@ -57,6 +57,17 @@ TEST(MeasureOptions, TheLargerCloudsSettingsAreChecked) {
 
 TEST(MeasureOptions, TheSilhouettesSettingsAreChecked) {
   MeasureOptions o;
+  o.outline_over_bark_two_sided_share = 1.5;
+  EXPECT_EQ(CheckMessage(o),
+            "the two-sided share of an outline that outweighs its bark must lie in [0, 1]");
+  o = MeasureOptions();
+  o.outline_over_bark_rms_px = -1;
+  EXPECT_EQ(CheckMessage(o), "the rms of an outline that outweighs its bark must not be negative");
+  o = MeasureOptions();
+  o.outline_over_bark_cloud_share = -0.1;
+  EXPECT_EQ(CheckMessage(o),
+            "the cloud's share within which an outline outweighs its bark must not be negative");
+  o = MeasureOptions();
   o.tangent.min_views_each_side = -1;
   EXPECT_EQ(CheckMessage(o), "the views each side needs must not be negative");
   o = MeasureOptions();

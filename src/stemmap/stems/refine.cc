@@ -271,6 +271,16 @@ BarkDepth CheckFitOnBark(const BarkDepthOptions& o, const TangentOptions& t,
   return bark;
 }
 
+bool OutlineOutweighsPlainBark(const MeasureOptions& o, const TangentFit& fit,
+                               const BarkDepth& bark, double cloud_radius_m, double px_m) {
+  return fit.ok && !bark.ok && !bark.at_search_end && bark.pairs >= o.bark_depth.min_pairs &&
+         bark.peak_ncc < o.bark_depth.min_surface_ncc &&
+         fit.two_sided_views >= o.outline_over_bark_two_sided_share * fit.tried_views &&
+         fit.rms_m < o.outline_over_bark_rms_px * px_m &&
+         std::abs(fit.radius_m - cloud_radius_m) <=
+             o.outline_over_bark_cloud_share * cloud_radius_m;
+}
+
 bool WideFitLinesUpOnBark(const MeasureOptions& o, const TangentFit& fit, const BarkDepth& bark,
                           double cloud_radius_m) {
   if (!(fit.radius_m > o.wide_fit_scale * cloud_radius_m)) return true;
@@ -302,7 +312,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       o.tangent.ForImageScale(static_cast<double>(camera.width) / bgr_camera.width);
   std::vector<Stem> kept;  // nearest first
   // The silhouettes' verdict on one stem, and the stem as then reported.
-  auto refine = [&](Stem s) {
+  // `outline_may_outweigh_bark`: for the cloud's parts; the larger cloud's stems alone rest on
+  // the coarse points' width, too rough to confirm an outline the bark does not.
+  auto refine_stem = [&](Stem s, bool outline_may_outweigh_bark) {
     const double breast_z = s.ground_z_m + o.stems.breast_height_m;
     const double r0 = CloudRadius(s);
     auto on_bark = [&](const TangentFit& candidate) {
@@ -312,7 +324,16 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     };
     TangentFit f = FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark);
     const double px_m = s.centre_xy.norm() / camera.fx;
+    const TangentFit outline = f;
     const BarkDepth bark = CheckFitOnBark(o.bark_depth, topt, views, breast_z, &f);
+    if (!f.ok && outline_may_outweigh_bark &&
+        OutlineOutweighsPlainBark(o, outline, bark, r0, px_m)) {
+      spdlog::debug(
+          "stems: ({:.2f}, {:.2f}) r {:.3f}: its bark correlates nowhere (ncc {:.2f}), its outline "
+          "stands (two-sided in {} of {} views)",
+          f.centre.x(), f.centre.y(), f.radius_m, bark.peak_ncc, f.two_sided_views, f.tried_views);
+      f = outline;
+    }
     if (f.ok && !WideFitLinesUpOnBark(o, f, bark, r0)) {
       spdlog::debug(
           "stems: ({:.2f}, {:.2f}) fit r {:.3f} over r0 {:.3f}: its bark does not show it "
@@ -391,6 +412,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     }
     return RefinedStem{verdict, std::move(s), clean, whole, agrees, sharp};
   };
+  auto refine = [&](Stem s) { return refine_stem(std::move(s), true); };
   const size_t n_larger_only = larger_cloud_only.size();
   PartOutcome total;
   // Nearest first (the detector's order): a farther stem's edge search then stops at the nearer
@@ -405,8 +427,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
   }
   // Last, where no listed stem stands: a stem hidden for most of the turn that only the larger
   // cloud saw.
-  const int hidden =
-      AddLargerCloudOnlyStems(o, std::move(larger_cloud_only), refine, &kept, &occluders);
+  const int hidden = AddLargerCloudOnlyStems(
+      o, std::move(larger_cloud_only), [&](Stem s) { return refine_stem(std::move(s), false); },
+      &kept, &occluders);
   const int twice = DropStemsFittedTwice(o.min_bark_gap_m, &kept);
   spdlog::info(
       "stems: tangent rays fitted {} of {} stems ({} from the cores of parts) and {} of {} the "

@@ -94,6 +94,12 @@ bool StandsOnItsOwnSilhouettes(const TangentOptions& o, const TangentFit& fit, d
 BarkDepth CheckFitOnBark(const BarkDepthOptions& o, const TangentOptions& t,
                          const TangentViews& views, double breast_z, TangentFit* fit);
 
+// Whether a fit the bark check rejected (`bark`: its bark's comparison) stands on its outline
+// (MeasureOptions::outline_over_bark_*): bark that lines up nowhere, not best at the end of the
+// search, inside a whole, tight outline as wide as the cloud's points (`cloud_radius_m`).
+bool OutlineOutweighsPlainBark(const MeasureOptions& o, const TangentFit& fit,
+                               const BarkDepth& bark, double cloud_radius_m, double px_m);
+
 // Whether a fit has the bark to show for its width: true unless it is over
 // MeasureOptions::wide_fit_scale times `cloud_radius_m` and its bark lines up to under
 // wide_fit_min_bark_ncc, or over too few pairs to tell.

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "stemmap/stems/test_scene.h"
 
@@ -138,6 +139,52 @@ TEST(HasSharpSilhouettes, BothSidesInThreeViewsOnOneCircleToHalfAPixel) {
   f.two_sided_views = 3;
   f.ok = false;
   EXPECT_FALSE(HasSharpSilhouettes(f, 0.5, px_m));
+}
+
+// Bark that correlates nowhere between views (leaves or their shadows across it) says nothing
+// against a whole outline as wide as the cloud's points: such a fit stands. Swept over the
+// outline's two-sided views, its rays' scatter, its width against the cloud's, and the bark's
+// correlation and where it peaked; anything short of a whole, tight outline the cloud's width
+// confirms, or bark that lines up best at the search's end, leaves the bark's verdict standing.
+TEST(OutlineOutweighsPlainBark, OnlyAWholeTightOutlineAsWideAsTheCloudOutweighsPlainBark) {
+  const MeasureOptions o;
+  const double px_m = 0.006, cloud_r = 0.13;
+  for (int two_sided : {6, 13, 14, 25}) {
+    for (double rms_px : {0.5, 1.0, 1.5}) {
+      for (double width : {0.7, 0.85, 1.0, 1.15, 1.3}) {
+        for (double ncc : {0.1, 0.25, 0.5}) {
+          for (bool at_end : {false, true}) {
+            TangentFit f;
+            f.ok = true;
+            f.tried_views = 27;
+            f.two_sided_views = two_sided;
+            f.rms_m = rms_px * px_m;
+            f.radius_m = width * cloud_r;
+            BarkDepth bark;
+            bark.pairs = 40;
+            bark.peak_ncc = ncc;
+            bark.at_search_end = at_end;
+            const bool whole = 2 * two_sided >= 27, tight = rms_px < 1.2;
+            const bool as_wide = std::abs(width - 1.0) <= 0.2 + 1e-9;
+            const bool plain = ncc < o.bark_depth.min_surface_ncc && !at_end;
+            EXPECT_EQ(OutlineOutweighsPlainBark(o, f, bark, cloud_r, px_m),
+                      whole && tight && as_wide && plain)
+                << two_sided << " two-sided, " << rms_px << " px, width " << width << ", ncc "
+                << ncc << (at_end ? " at the end" : "");
+          }
+        }
+      }
+    }
+  }
+  // Too few pairs compared: the bark check had nothing to say, and nothing to outweigh.
+  TangentFit f;
+  f.ok = true;
+  f.tried_views = f.two_sided_views = 20;
+  f.rms_m = 0.5 * px_m;
+  f.radius_m = cloud_r;
+  BarkDepth bark;
+  bark.pairs = o.bark_depth.min_pairs - 1;
+  EXPECT_FALSE(OutlineOutweighsPlainBark(o, f, bark, cloud_r, px_m));
 }
 
 TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
