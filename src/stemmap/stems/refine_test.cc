@@ -54,7 +54,7 @@ TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
   EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
 }
 
-// natural-5's smear: a 14.4-cm stem at 5.7 m, and a part 0.7 m behind it on nearly its bearing.
+// Stereo smear: a 14.4-cm stem at 5.7 m, and a part 0.7 m behind it on nearly its bearing.
 TEST(InShadowOfNearerStem, APointStraightBehindAListedStem) {
   const std::vector<Stem> nearer = {Fitted(-2.70, 5.04, 0.144, 0.0)};
   EXPECT_TRUE(InShadowOfNearerStem(nearer, {-2.96, 5.66}));
@@ -66,7 +66,8 @@ TEST(InShadowOfNearerStem, APointStraightBehindAListedStem) {
 }
 
 // What may stand straight behind a nearer stem: both sides in three views on one circle, or
-// many silhouettes (managed-2's 37.7-cm stem: 26, both sides in two views) to within a pixel.
+// many silhouettes (26, both sides in two views, as a large stem seen past a nearer one gives)
+// to within a pixel.
 TEST(StandsOnItsOwnSilhouettes, TwoSidedViewsOrManyTightSilhouettes) {
   const TangentOptions o;
   const double px_m = 0.006;
@@ -82,7 +83,7 @@ TEST(StandsOnItsOwnSilhouettes, TwoSidedViewsOrManyTightSilhouettes) {
   EXPECT_TRUE(StandsOnItsOwnSilhouettes(o, f, px_m));
   f.two_sided_views = 1;
   f.rms_m = 0.0042;
-  f.rays = 9;  // managed-1's stem hidden behind a 39-cm one 2.7 m out
+  f.rays = 9;  // few silhouettes: a stem hidden behind a wide one near the tripod
   EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
   f.rays = 26;
   f.ok = false;
@@ -123,7 +124,7 @@ TEST(StandsOnItsOwnSilhouettes, EachSideInViewsOfItsOwn) {
 }
 
 TEST(HasSharpSilhouettes, BothSidesInThreeViewsOnOneCircleToHalfAPixel) {
-  // natural-2's 11.4-cm stem 8.5 m out behind a 24.3-cm one: 10 rays, 4 views two-sided, 1.6 mm.
+  // A thin stem far out behind a wider one: 10 rays, 4 views two-sided, 1.6 mm.
   const double px_m = 0.0058;
   TangentFit f;
   f.ok = true;
@@ -188,7 +189,8 @@ TEST(OutlineOutweighsPlainBark, OnlyAWholeTightOutlineAsWideAsTheCloudOutweighsP
 }
 
 TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
-  // natural-3's 4.4-cm sapling: its 8.8-cm part, a 2.2-times start closed on 19.8 cm.
+  // A sapling's 8.8-cm part, whose widest start closed on 19.8 cm (its crown, or it and a
+  // neighbour).
   const MeasureOptions o;
   TangentFit f;
   f.ok = true;
@@ -197,7 +199,7 @@ TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
   bark.pairs = 38;
   bark.peak_ncc = 0.38;
   EXPECT_FALSE(WideFitLinesUpOnBark(o, f, bark, 0.044));
-  bark.peak_ncc = 0.955;  // managed-1's 26.8-cm stem, a 9.6-cm sliver in the cloud
+  bark.peak_ncc = 0.955;  // a stem of which the cloud saw only a sliver: its bark lines up
   EXPECT_TRUE(WideFitLinesUpOnBark(o, f, bark, 0.044));
   bark.pairs = 0;  // no bark to compare: nothing shows the width
   EXPECT_FALSE(WideFitLinesUpOnBark(o, f, bark, 0.044));
@@ -261,8 +263,8 @@ TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
 }
 
 TEST(BarkConfirmsCloud, TwoSidedSilhouettesAndBarkOnTheCloudsCircle) {
-  // natural-5's 16.4-cm stem in front of a 35.8-cm one 2 m behind it: the fit settled on the far
-  // stem, where the bark did not line up; on the cloud's circle it does, 6 cm nearer.
+  // A 16.4-cm stem in front of a 35.8-cm one 2 m behind it: the fit settled on the far stem,
+  // where the bark did not line up; on the cloud's circle it does, 6 cm nearer.
   Stem part;
   TangentFit f;
   f.ok = false;

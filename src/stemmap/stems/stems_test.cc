@@ -51,7 +51,7 @@ Stem StemAt(double x, double y, double dbh_m) {
 }
 
 TEST(AttachLargerCloudParts, AnOverlappingPartThatDiffersJoinsTheNearestStem) {
-  // managed-1's 31.9-cm stem: the cloud saw an 18.8-cm sliver of it, the larger cloud 30.8 cm.
+  // A 31.9-cm stem of which the cloud saw an 18.8-cm sliver, the larger cloud 30.8 cm.
   std::vector<Stem> found = {StemAt(4.99, -4.49, 0.188), StemAt(1.88, -1.90, 0.343),
                              StemAt(8.0, 0.0, 0.3)};
   const std::vector<Stem> more = {
@@ -67,7 +67,7 @@ TEST(AttachLargerCloudParts, AnOverlappingPartThatDiffersJoinsTheNearestStem) {
 }
 
 TEST(StemsAwayFrom, KeepsTheStemsClearOfEveryFoundOneNearestFirst) {
-  // natural-2's 11.4-cm stem behind a 24.3-cm one: the cloud has no part there.
+  // A thin stem behind a wider one, where the cloud has no part.
   const std::vector<Stem> found = {StemAt(-4.44, 1.24, 0.216), StemAt(8.0, 0.0, 0.3)};
   std::vector<Stem> more = {
       StemAt(-8.46, 2.29, 0.106),  // clear of both
