@@ -189,8 +189,7 @@ TEST(OutlineOutweighsPlainBark, OnlyAWholeTightOutlineAsWideAsTheCloudOutweighsP
 }
 
 TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
-  // A sapling's 8.8-cm part, whose widest start closed on 19.8 cm (its crown, or it and a
-  // neighbour).
+  // A sapling's 8.8-cm part, whose widest start closed on 19.8 cm.
   const MeasureOptions o;
   TangentFit f;
   f.ok = true;
