@@ -40,7 +40,8 @@ struct MeasureOptions {
   double one_sided_min_cloud_radius_m = 0.075;
   // A part that silhouettes do not fit is replaced by its dense cores that they fit cleanly; when
   // the part is kept on its cloud (one stem, perhaps widened by a shrub), only by cores at least
-  // this share of its width (a narrower one is a piece of the stem's bark).
+  // this share of its width (a narrower one is a piece of the stem's bark), or by a narrower one
+  // whose silhouettes show both sides in most of its views.
   double min_core_share = 0.6;
   // A smeared part whose silhouettes fit a stem under this share of its width may be stems one
   // behind another: its cores replace it when two or more of them fit cleanly on their own.

@@ -119,7 +119,9 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   // No silhouette fits the part as a whole: it may be stems one behind another, or a stem and
   // a shrub or sapling beside it. Each dense core is a stem when its own silhouettes fit it
   // cleanly, clear of the stems kept so far; they replace the part. A part kept on its cloud
-  // is one stem, maybe widened by a shrub: a core far narrower than it is a piece of its bark.
+  // is one stem, maybe widened by a shrub or by stereo's smear: a core far narrower than it is
+  // a piece of its bark, unless its own silhouettes show both sides in most of its views (a
+  // piece of bark has no such outline; the stem the cloud smeared wide has).
   const size_t before = kept->size();
   const double min_core_dbh_m =
       verdict == SilhouetteVerdict::kKeepCloud ? o.min_core_share * s.dbh_m : 0.0;
@@ -131,7 +133,10 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   int whole_cores = 0;
   for (RefinedStem& r : refined) {
     Stem& c = r.stem;
-    if (r.verdict != SilhouetteVerdict::kUse || !r.clean || c.dbh_m < min_core_dbh_m) continue;
+    if (r.verdict != SilhouetteVerdict::kUse || !r.clean ||
+        (c.dbh_m < min_core_dbh_m && !r.whole)) {
+      continue;
+    }
     const bool overlaps = std::ranges::any_of(*kept, [&](const Stem& k) {
       return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
     });

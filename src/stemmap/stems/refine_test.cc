@@ -428,6 +428,35 @@ TEST(ResolvePart, OfOverlappingCoresTheWholeOneStands) {
   EXPECT_EQ(out.from_cores, 1);
 }
 
+// A part kept on its cloud's width (its own fit neither near it nor two-sided in most views),
+// with one core under min_core_share of that width: stereo smeared a stem 1.5-1.7 times wide,
+// and the core is the stem when its own silhouettes show both sides in most of its views; a
+// core without such an outline is a piece of the bark and the part stands. Swept over the
+// core's share of the part's width.
+TEST(ResolvePart, AWholeCoreReplacesAPartKeptOnItsSmearedWidth) {
+  for (double share : {0.35, 0.5, 0.59}) {
+    for (bool core_whole : {true, false}) {
+      Stem part = Fitted(4.2, 7.55, 0.0, 0.0);
+      part.dbh_slice_m = 0.436;
+      part.alternatives = {Fitted(4.36, 7.54, share * 0.436, 0.0)};
+      auto refine = [&](Stem s) {
+        const bool is_part = s.dbh_m == 0.0;
+        if (is_part) {
+          s.dbh_m = 0.436;  // kept on the cloud
+          return RefinedStem{SilhouetteVerdict::kKeepCloud, std::move(s), false, false};
+        }
+        return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, core_whole};
+      };
+      std::vector<Stem> kept;
+      const PartOutcome out = ResolvePart({}, part, refine, &kept);
+      ASSERT_EQ(kept.size(), 1u);
+      EXPECT_DOUBLE_EQ(kept[0].dbh_m, core_whole ? share * 0.436 : 0.436)
+          << "core " << share << " of the part, " << (core_whole ? "whole" : "not whole");
+      EXPECT_EQ(out.from_cores, core_whole ? 1 : 0);
+    }
+  }
+}
+
 TEST(ResolvePart, AFitNearThePartsWidthKeepsThePartWithoutTryingItsCores) {
   InLine c;
   c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
