@@ -151,11 +151,13 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
       static_cast<int>(std::find_if(count.rbegin(), count.rend(), [](int n) { return n > 0; }) -
                        count.rbegin());
   if (last - first < kMinColumns) return edges;
-  diff = std::vector<double>(diff.begin() + first, diff.begin() + last + 1);
-  count = std::vector<int>(count.begin() + first, count.begin() + last + 1);
-  x_begin += first;
-  x_end = x_begin + static_cast<int>(count.size()) - 1;
-  width = x_end - x_begin + 1;
+  if (first > 0 || last < width - 1) {  // only at the picture's borders: no copy otherwise
+    diff = std::vector<double>(diff.begin() + first, diff.begin() + last + 1);
+    count = std::vector<int>(count.begin() + first, count.begin() + last + 1);
+    x_begin += first;
+    x_end = x_begin + static_cast<int>(count.size()) - 1;
+    width = x_end - x_begin + 1;
+  }
   for (int i = 0; i < width; ++i) {
     if (count[i] == 0) return edges;
     diff[i] /= count[i];
