@@ -114,7 +114,7 @@ int BestView(const PinholeCamera& camera, const std::vector<StampedPose>& keyfra
   for (size_t k = 0; k < keyframes.size(); ++k) {
     const Rigid3d& pose = keyframes[k].world_from_cam;
     const auto edges =
-        ProjectSilhouette(camera, pose, s.centre_xy, 0.5 * s.dbh_m, s.ground_z_m + breast_height_m);
+        ProjectSilhouette(camera, pose, s.centre_xy, 0.5 * s.dbh_m, s.floor_z_m + breast_height_m);
     if (!edges) continue;
     // Off-centre distance in image widths; a hidden stem ranks after every clear view.
     double score = std::abs(0.5 * (edges->left.x() + edges->right.x()) - camera.cx) / camera.width;
@@ -231,7 +231,7 @@ std::string PictureCell(const ReportOptions& o, const ReportInput& in, size_t i,
   const stems::Stem& s = stems[i];
   const StampedPose& view = (*in.keyframes)[k];
   const auto edges = ProjectSilhouette(*in.camera, view.world_from_cam, s.centre_xy, 0.5 * s.dbh_m,
-                                       s.ground_z_m + o.breast_height_m);
+                                       s.floor_z_m + o.breast_height_m);
   if (!edges) throw ProcessingError("report: the best view lost the stem");  // cannot happen
   std::vector<uchar> jpeg;
   cv::imencode(".jpg", StemThumbnail((*in.images)[k], *edges, o.crop_height_px), jpeg,

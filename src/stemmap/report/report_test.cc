@@ -23,7 +23,7 @@ stems::Stem StemAt(double x, double y, double dbh_m) {
   stems::Stem s;
   s.centre_xy = {x, y};
   s.dbh_m = dbh_m;
-  s.ground_z_m = 1.3 - 1.37;  // breast height level with the camera
+  s.ground_z_m = s.floor_z_m = 1.3 - 1.37;  // breast height level with the camera
   return s;
 }
 

@@ -38,6 +38,11 @@ void GroundOptions::Check() const {
         "the rays under a ground cell's floor: count, depth and clearance must not be "
         "negative");
   }
+  if (!(refine_below_m > 0 && refine_above_m > 0) || refine_iterations < 0) {
+    throw InputError(
+        "the ground's refinement needs a band reaching more than 0 m under and over the ground, "
+        "and a non-negative number of iterations");
+  }
 }
 
 namespace {
@@ -123,7 +128,36 @@ GroundGrid::GroundGrid(const std::vector<dense::CloudPoint>& points, double radi
     n_ = 0;
     return;
   }
-  FillFromGroundCells(FilterGround(floors));
+  const std::vector<char> is_ground = FilterGround(floors);
+  FillFromGroundCells(is_ground);
+  floor_z_ = z_;
+  for (int k = 0; k < o.refine_iterations; ++k) {
+    CentreOnPoints(points, is_ground);
+    FillFromGroundCells(is_ground);
+  }
+}
+
+void GroundGrid::CentreOnPoints(const std::vector<dense::CloudPoint>& points,
+                                const std::vector<char>& is_ground) {
+  std::vector<std::vector<float>> residuals(z_.size());
+  for (const dense::CloudPoint& p : points) {
+    const int i = static_cast<int>(std::floor((p.world.x() - origin_) / o_.cell_m));
+    const int j = static_cast<int>(std::floor((p.world.y() - origin_) / o_.cell_m));
+    if (i < 0 || j < 0 || i >= n_ || j >= n_) continue;
+    const size_t c = static_cast<size_t>(j) * n_ + i;
+    if (!is_ground[c]) continue;
+    const double r = p.world.z() - Height(p.world.x(), p.world.y());
+    if (r >= -o_.refine_below_m && r <= o_.refine_above_m) {
+      residuals[c].push_back(static_cast<float>(r));
+    }
+  }
+  for (size_t c = 0; c < z_.size(); ++c) {
+    std::vector<float>& r = residuals[c];
+    if (static_cast<int>(r.size()) < o_.min_cell_points) continue;
+    const auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
+    std::nth_element(r.begin(), mid, r.end());
+    z_[c] += *mid;
+  }
 }
 
 void GroundGrid::DropFloorsSeenUnder(const std::vector<dense::CloudPoint>& points,
@@ -245,6 +279,7 @@ void GroundGrid::FillFromGroundCells(const std::vector<char>& is_ground) {
   Eigen::Matrix3d ata = Eigen::Matrix3d::Zero(), axis_ata = Eigen::Matrix3d::Zero();
   Eigen::Vector3d atb = Eigen::Vector3d::Zero(), axis_atb = Eigen::Vector3d::Zero();
   int axis_cells = 0;
+  ground_ = 0;
   for (int c = 0; c < n_ * n_; ++c) {
     if (!is_ground[c]) continue;
     ++ground_;
@@ -335,9 +370,18 @@ GroundGrid::Slope GroundGrid::PlaneSlope(double radius_m) const {
   return s;
 }
 
-double GroundGrid::Height(double x, double y) const {
+double GroundGrid::UphillHeight(double x, double y, double radius_m) const {
+  double z = Height(x, y);
+  constexpr int kBearings = 16;
+  for (int k = 0; k < kBearings; ++k) {
+    const double a = 2 * M_PI * k / kBearings;
+    z = std::max(z, Height(x + radius_m * std::cos(a), y + radius_m * std::sin(a)));
+  }
+  return z;
+}
+
+double GroundGrid::Interpolate(const std::vector<float>& z, double x, double y) const {
   if (n_ == 0) return 0.0;
-  // Bilinear between cell centres.
   const double fx = std::clamp((x - origin_) / o_.cell_m - 0.5, 0.0, n_ - 1.0);
   const double fy = std::clamp((y - origin_) / o_.cell_m - 0.5, 0.0, n_ - 1.0);
   const int i = std::min(static_cast<int>(fx), std::max(0, n_ - 2));
@@ -345,7 +389,7 @@ double GroundGrid::Height(double x, double y) const {
   const double u = fx - i, v = fy - j;
   auto at = [&](int a, int b) {
     return static_cast<double>(
-        z_[static_cast<size_t>(std::min(b, n_ - 1)) * n_ + std::min(a, n_ - 1)]);
+        z[static_cast<size_t>(std::min(b, n_ - 1)) * n_ + std::min(a, n_ - 1)]);
   };
   return (1 - u) * (1 - v) * at(i, j) + u * (1 - v) * at(i + 1, j) + (1 - u) * v * at(i, j + 1) +
          u * v * at(i + 1, j + 1);

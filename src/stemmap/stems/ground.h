@@ -52,15 +52,26 @@ struct GroundOptions {
   // The ground under the tripod (AxisHeight) is the plane through the ground cells within this
   // (m): nearer ones alone, seen from 3.5 m out, would carry a mound beside the tripod into it.
   double axis_plane_radius_m = 8.0;
+  // A cell's floor is an extreme of its points' depth noise (the lower the more points it
+  // holds), and on a slope its ground layer holds the cell's downhill part only: both put the
+  // ground centimetres low. So each ground cell is then moved by the median height of its points
+  // from refine_below_m under the grid's surface to refine_above_m over it (m; bilinear between
+  // cells, so a slope within the cell is no bias), refine_iterations times. The band reaches less
+  // far up: what stands on the ground (leaves, litter, a stem's foot) is above it, never under. 0
+  // iterations (the default): floors as they are. On this project's simulated natural plots three
+  // iterations bring the ground at stems from 3.0 cm low to 0.7 cm; on the other renderer's
+  // sample, whose floor is covered with litter a few centimetres deep, they read it 2.7 cm higher
+  // than its floors do and put fewer stems within 5 cm (docs/benchmarks.md).
+  double refine_below_m = 0.1;
+  double refine_above_m = 0.05;
+  int refine_iterations = 0;
   void Check() const;
 };
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(GroundOptions, cell_m, min_cell_points, floor_bin_m,
-                                                floor_min_points, ground_layer_m,
-                                                max_floor_at_view_bottom, min_rays_under_floor,
-                                                max_pass_under_floor_m, pass_end_clearance_m,
-                                                windows_m, min_rise_m, max_slope, fill_radius_m,
-                                                fill_one_sided_m, fill_slope_prior,
-                                                axis_plane_radius_m)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    GroundOptions, cell_m, min_cell_points, floor_bin_m, floor_min_points, ground_layer_m,
+    max_floor_at_view_bottom, min_rays_under_floor, max_pass_under_floor_m, pass_end_clearance_m,
+    windows_m, min_rise_m, max_slope, fill_radius_m, fill_one_sided_m, fill_slope_prior,
+    axis_plane_radius_m, refine_below_m, refine_above_m, refine_iterations)
 
 // Terrain under the plot: a grid of ground heights from each cell's floor, with what stands on
 // the ground (shrubs, sapling crowns, dead wood) filtered out by a progressive morphological
@@ -73,7 +84,15 @@ class GroundGrid {
   // `points` in the plot frame; cells out to `radius_m` from the plot centre.
   GroundGrid(const std::vector<dense::CloudPoint>& points, double radius_m,
              const GroundOptions& options = {});
-  double Height(double x, double y) const;
+  double Height(double x, double y) const { return Interpolate(z_, x, y); }
+  // The grid before its cells were centred on their points (GroundOptions::refine_iterations):
+  // each at the median of its floor layer, centimetres low on dense, noisy or sloping ground.
+  // Detection bands heights above this one: what stands on the ground is told apart from it
+  // there, and the bands' limits were set on it.
+  double FloorHeight(double x, double y) const { return Interpolate(floor_z_, x, y); }
+  // The ground on the uphill side of a stem of `radius_m` standing at (x, y): the highest of the
+  // ground at its axis and around its girth. On a slope, breast height is measured from there.
+  double UphillHeight(double x, double y, double radius_m) const;
   // The ground under the plot centre, where the camera sees none (GroundOptions::
   // axis_plane_radius_m); NaN without three ground cells in reach.
   double AxisHeight() const { return axis_height_m_; }
@@ -96,11 +115,17 @@ class GroundGrid {
   std::vector<char> FilterGround(const std::vector<float>& floors) const;
   void KeepTheLargestGroundPatch(const std::vector<float>& floors,
                                  std::vector<char>* is_ground) const;
+  // Heights of the cells off the ground from the ground cells around them.
   void FillFromGroundCells(const std::vector<char>& is_ground);
+  // Bilinear between cell centres.
+  double Interpolate(const std::vector<float>& z, double x, double y) const;
+  // Moves each ground cell to its points about the surface (GroundOptions::refine_*).
+  void CentreOnPoints(const std::vector<dense::CloudPoint>& points,
+                      const std::vector<char>& is_ground);
   GroundOptions o_;
   int n_ = 0, measured_ = 0, ground_ = 0;
   double origin_ = 0.0, axis_height_m_ = 0.0;
-  std::vector<float> z_;
+  std::vector<float> z_, floor_z_;
 };
 
 }  // namespace stemmap::stems

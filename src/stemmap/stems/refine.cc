@@ -320,7 +320,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
   // `outline_may_outweigh_bark`: for the cloud's parts; the larger cloud's stems alone rest on
   // the coarse points' width, too rough to confirm an outline the bark does not.
   auto refine_stem = [&](Stem s, bool outline_may_outweigh_bark) {
-    const double breast_z = s.ground_z_m + o.stems.breast_height_m;
+    const double breast_z = s.floor_z_m + o.stems.breast_height_m;
     const double r0 = CloudRadius(s);
     auto on_bark = [&](const TangentFit& candidate) {
       TangentFit copy = candidate;

@@ -501,7 +501,8 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   }
   s.pass_through = PassThroughRatio(b.points, c, r);
   s.centre_xy = c;
-  s.ground_z_m = ground.Height(c.x(), c.y());
+  s.ground_z_m = ground.UphillHeight(c.x(), c.y(), r);
+  s.floor_z_m = ground.FloorHeight(c.x(), c.y());
   s.dbh_m = o.dbh_method == "circle" ? s.dbh_circle_m : s.dbh_slice_m;  // tangent: later
   s.dbh_sd_m = rms;
   s.n_points = static_cast<int>(slice.size());
@@ -569,7 +570,7 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
   for (const dense::CloudPoint& p : cloud) {
     const double x = p.world.x(), y = p.world.y();
     if (std::hypot(x, y) > o.search_radius_m) continue;
-    const double h = p.world.z() - ground.Height(x, y);
+    const double h = p.world.z() - ground.FloorHeight(x, y);
     if (h < o.band_low_m || h > o.band_high_m) continue;
     band.push_back(&p);
     band_h.push_back(h);

@@ -109,7 +109,11 @@ class StemFlags {
 
 struct Stem {
   Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();  // plot frame, at breast height
-  double ground_z_m = 0.0;
+  double ground_z_m = 0.0;  // the ground on its uphill side (GroundGrid::UphillHeight)
+  // The floor surface under it (GroundGrid::FloorHeight), which detection measures heights from:
+  // its section is fitted breast_height_m above this, centimetres from the reported height,
+  // where every threshold of the fits was set.
+  double floor_z_m = 0.0;
   double dbh_m = 0.0, dbh_sd_m = 0.0;
   double confidence = 1.0;  // the chance that it is a stem (DetectionConfidence)
   double dbh_slice_m = 0.0, dbh_circle_m = 0.0;        // every estimator, whichever is reported
