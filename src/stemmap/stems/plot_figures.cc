@@ -115,6 +115,9 @@ void PlotFigureOptions::Check() const {
   if (!(dominant_stems_per_ha > 0)) {
     throw InputError("the dominant diameter needs a positive number of stems a hectare");
   }
+  if (!(listed_share_in_view > 0 && listed_share_in_view <= 1)) {
+    throw InputError("the share of the stems in view that are listed must lie in (0, 1]");
+  }
   occlusion.Check();
 }
 
@@ -199,6 +202,7 @@ PlotFigures ComputePlotFigures(const PlotFigureOptions& o, const std::vector<Ste
   // The hidden ground holds stems at the density of the ground seen.
   const double seen_m2 = std::max(1.0, visibility.plot_area_m2 - visibility.hidden_area_m2);
   f.expected_hidden_stems = f.stems * visibility.hidden_area_m2 / seen_m2;
+  const double expected_missed = f.stems * (1.0 - o.listed_share_in_view) / o.listed_share_in_view;
   Rng rng(o.seed);
   std::vector<double> per_ha, basal, qmd, dominant;
   std::vector<double> draw;
@@ -209,7 +213,8 @@ PlotFigures ComputePlotFigures(const PlotFigureOptions& o, const std::vector<Ste
       const double d = rng.Normal(100 * s->dbh_m, 100 * s->dbh_sd_m);
       if (d >= o.min_dbh_cm) draw.push_back(d);
     }
-    const int hidden = dbh_cm.empty() ? 0 : Poisson(f.expected_hidden_stems, &rng);
+    const int hidden =
+        dbh_cm.empty() ? 0 : Poisson(f.expected_hidden_stems + expected_missed, &rng);
     for (int h = 0; h < hidden; ++h) {
       draw.push_back(dbh_cm[rng.UniformInt(0, static_cast<int>(dbh_cm.size()) - 1)]);
     }

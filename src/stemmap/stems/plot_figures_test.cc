@@ -5,6 +5,8 @@
 #include <cmath>
 #include <vector>
 
+#include "stemmap/core/error.h"
+
 namespace stemmap::stems {
 namespace {
 
@@ -56,6 +58,7 @@ TEST(ComputePlotFigures, CertainStemsGiveTheirFiguresAndNarrowIntervals) {
   const std::vector<Stem> trees = {Listed(3, 0, 0.30), Listed(0, 5, 0.40), Listed(-6, -2, 0.20),
                                    Listed(11, 0, 0.50)};  // beyond the plot
   PlotFigureOptions o;
+  o.listed_share_in_view = 1.0;  // every stem in view listed
   const PlotFigures f = ComputePlotFigures(o, trees, Visibility{{}, 0.0, M_PI * 100});
   EXPECT_EQ(f.stems, 3);
   const double area_ha = M_PI * 100 / 1e4;
@@ -82,6 +85,42 @@ TEST(ComputePlotFigures, DoubtAndHiddenGroundWidenTheIntervals) {
   // The draws are seeded: the same input gives the same intervals.
   const PlotFigures again = ComputePlotFigures(PlotFigureOptions(), trees, hidden);
   EXPECT_EQ(again.basal_area_m2_per_ha_95.low, f.basal_area_m2_per_ha_95.low);
+}
+
+// A detector that lists 96 % of the stems in view misses one now and then, visible or not: the
+// plot may hold more stems than listed, however certain each listed one is, and the more listed,
+// the likelier. The interval's top reaches above the count; with every stem in view listed it
+// does not.
+TEST(ComputePlotFigures, StemsInViewTheDetectorMissedWidenTheIntervalsUpward) {
+  for (int n : {3, 8, 20}) {
+    SCOPED_TRACE(::testing::Message() << n << " stems listed");
+    std::vector<Stem> trees;
+    for (int i = 0; i < n; ++i) {
+      const double a = 2 * M_PI * i / n;
+      trees.push_back(Listed(6 * std::cos(a), 6 * std::sin(a), 0.2 + 0.01 * i));
+    }
+    const Visibility all_seen{{}, 0.0, M_PI * 100};
+    const PlotFigures f = ComputePlotFigures(PlotFigureOptions(), trees, all_seen);
+    EXPECT_NEAR(f.stems_per_ha_95.low, f.stems_per_ha, 1e-9) << "certain stems are all there";
+    EXPECT_GT(f.stems_per_ha_95.high, f.stems_per_ha);
+    EXPECT_GT(f.basal_area_m2_per_ha_95.high, f.basal_area_m2_per_ha);
+    PlotFigureOptions all_listed;
+    all_listed.listed_share_in_view = 1.0;
+    EXPECT_NEAR(ComputePlotFigures(all_listed, trees, all_seen).stems_per_ha_95.high,
+                f.stems_per_ha, 1e-9);
+  }
+}
+
+// The share of stems in view that are listed lies in (0, 1].
+TEST(PlotFigureOptions, AListedShareOutsideZeroToOneIsRefused) {
+  for (double share : {0.0, -0.5, 1.5}) {
+    PlotFigureOptions o;
+    o.listed_share_in_view = share;
+    EXPECT_THROW(o.Check(), InputError) << share;
+  }
+  PlotFigureOptions o;
+  o.listed_share_in_view = 1.0;
+  EXPECT_NO_THROW(o.Check());
 }
 
 TEST(ComputePlotFigures, TheStandTableSplitsTheStemsByFiveCentimetreClass) {
