@@ -59,7 +59,7 @@ struct GroundOptions {
   // cells, so a slope within the cell is no bias), refine_iterations times. The band reaches less
   // far up: what stands on the ground (leaves, litter, a stem's foot) is above it, never under. 0
   // iterations (the default): floors as they are. On this project's simulated natural plots three
-  // iterations bring the ground at stems from 3.0 cm low to 0.7 cm; on the other renderer's
+  // iterations bring the ground at stems from 1.7 cm low to 0.7 cm; on the other renderer's
   // sample, whose floor is covered with litter a few centimetres deep, they read it 2.7 cm higher
   // than its floors do and put fewer stems within 5 cm (docs/benchmarks.md).
   double refine_below_m = 0.1;
@@ -87,7 +87,7 @@ class GroundGrid {
   double Height(double x, double y) const { return Interpolate(z_, x, y); }
   // The grid before its cells were centred on their points (GroundOptions::refine_iterations):
   // each at the median of its floor layer, centimetres low on dense, noisy or sloping ground.
-  // Detection bands heights above this one: what stands on the ground is told apart from it
+  // Detection measures heights above this one: what stands on the ground is told apart from it
   // there, and the bands' limits were set on it.
   double FloorHeight(double x, double y) const { return Interpolate(floor_z_, x, y); }
   // The ground on the uphill side of a stem of `radius_m` standing at (x, y): the highest of the
