@@ -111,10 +111,8 @@ GroundGrid::GroundGrid(const std::vector<dense::CloudPoint>& points, double radi
   n_ = static_cast<int>(std::ceil(2 * radius_m / o.cell_m));
   std::vector<std::vector<CellPoint>> zs(static_cast<size_t>(n_) * n_);
   for (const dense::CloudPoint& p : points) {
-    const int i = static_cast<int>(std::floor((p.world.x() - origin_) / o.cell_m));
-    const int j = static_cast<int>(std::floor((p.world.y() - origin_) / o.cell_m));
-    if (i < 0 || j < 0 || i >= n_ || j >= n_) continue;
-    zs[static_cast<size_t>(j) * n_ + i].push_back({p.world.z(), p.at_view_bottom});
+    const std::ptrdiff_t c = CellOf(p.world.x(), p.world.y());
+    if (c >= 0) zs[static_cast<size_t>(c)].push_back({p.world.z(), p.at_view_bottom});
   }
   std::vector<float> floors(zs.size(), kMissing);
   z_.assign(zs.size(), kMissing);
@@ -137,18 +135,22 @@ GroundGrid::GroundGrid(const std::vector<dense::CloudPoint>& points, double radi
   }
 }
 
+std::ptrdiff_t GroundGrid::CellOf(double x, double y) const {
+  const int i = static_cast<int>(std::floor((x - origin_) / o_.cell_m));
+  const int j = static_cast<int>(std::floor((y - origin_) / o_.cell_m));
+  if (i < 0 || j < 0 || i >= n_ || j >= n_) return -1;
+  return static_cast<std::ptrdiff_t>(j) * n_ + i;
+}
+
 void GroundGrid::CentreOnPoints(const std::vector<dense::CloudPoint>& points,
                                 const std::vector<char>& is_ground) {
   std::vector<std::vector<float>> residuals(z_.size());
   for (const dense::CloudPoint& p : points) {
-    const int i = static_cast<int>(std::floor((p.world.x() - origin_) / o_.cell_m));
-    const int j = static_cast<int>(std::floor((p.world.y() - origin_) / o_.cell_m));
-    if (i < 0 || j < 0 || i >= n_ || j >= n_) continue;
-    const size_t c = static_cast<size_t>(j) * n_ + i;
-    if (!is_ground[c]) continue;
+    const std::ptrdiff_t c = CellOf(p.world.x(), p.world.y());
+    if (c < 0 || !is_ground[static_cast<size_t>(c)]) continue;
     const double r = p.world.z() - Height(p.world.x(), p.world.y());
     if (r >= -o_.refine_below_m && r <= o_.refine_above_m) {
-      residuals[c].push_back(static_cast<float>(r));
+      residuals[static_cast<size_t>(c)].push_back(static_cast<float>(r));
     }
   }
   for (size_t c = 0; c < z_.size(); ++c) {

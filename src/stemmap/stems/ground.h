@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <nlohmann/json.hpp>
 #include <vector>
 
@@ -117,6 +118,8 @@ class GroundGrid {
                                  std::vector<char>* is_ground) const;
   // Heights of the cells off the ground from the ground cells around them.
   void FillFromGroundCells(const std::vector<char>& is_ground);
+  // The index of the cell holding (x, y), or -1 outside the grid.
+  std::ptrdiff_t CellOf(double x, double y) const;
   // Bilinear between cell centres.
   double Interpolate(const std::vector<float>& z, double x, double y) const;
   // Moves each ground cell to its points about the surface (GroundOptions::refine_*).
