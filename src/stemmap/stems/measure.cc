@@ -45,6 +45,10 @@ void MeasureOptions::Check() const {
   if (!(loose_fit_rms_px > 0)) {
     throw InputError("the rms beyond which a narrower fit is loose must be positive");
   }
+  if (!(narrower_on_bark_two_sided_share >= 0 && narrower_on_bark_two_sided_share <= 0.5)) {
+    throw InputError(
+        "the two-sided share of a narrower fit whose bark lines up must lie in [0, 0.5]");
+  }
   if (!(outline_over_bark_two_sided_share >= 0 && outline_over_bark_two_sided_share <= 1)) {
     throw InputError(
         "the two-sided share of an outline that outweighs its bark must lie in [0, 1]");

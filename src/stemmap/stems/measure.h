@@ -71,6 +71,10 @@ struct MeasureOptions {
   // furrows, a shadow's border, a neighbour's edge in some views), and the points' width,
   // measured on the stem's surface, stands.
   double loose_fit_rms_px = 3.0;
+  // A fit narrower than the cloud, down to TangentOptions::narrow_min_share of it, outranks the
+  // cloud's width when both its sides show in half the views that tried it, on one circle to
+  // about a pixel; where its bark lines up too (BarkDepth::ok), in this share of them.
+  double narrower_on_bark_two_sided_share = 0.25;
   // Bark that correlates nowhere between views (leaves, or their shadows, across it from view to
   // view) does not outweigh a whole outline: a fit two-sided in at least this share of the views
   // that tried it, its rays on one circle to this many pixels (rms, px at the stem), its radius
@@ -89,7 +93,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     keep_bark_confirmed_cloud, one_sided_max_over_cloud, one_sided_min_cloud_radius_m,
     min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
     larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
-    outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share)
+    narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
+    outline_over_bark_cloud_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

@@ -10,6 +10,7 @@
 #include "stemmap/core/check_message.h"
 #include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
+#include "stemmap/stems/bark_depth.h"
 #include "stemmap/stems/test_scene.h"
 
 namespace stemmap::stems {
@@ -57,6 +58,10 @@ TEST(MeasureOptions, TheLargerCloudsSettingsAreChecked) {
 
 TEST(MeasureOptions, TheSilhouettesSettingsAreChecked) {
   MeasureOptions o;
+  o.narrower_on_bark_two_sided_share = 0.6;
+  EXPECT_EQ(CheckMessage(o),
+            "the two-sided share of a narrower fit whose bark lines up must lie in [0, 0.5]");
+  o = MeasureOptions();
   o.outline_over_bark_two_sided_share = 1.5;
   EXPECT_EQ(CheckMessage(o),
             "the two-sided share of an outline that outweighs its bark must lie in [0, 1]");
@@ -67,6 +72,11 @@ TEST(MeasureOptions, TheSilhouettesSettingsAreChecked) {
   o.outline_over_bark_cloud_share = -0.1;
   EXPECT_EQ(CheckMessage(o),
             "the cloud's share within which an outline outweighs its bark must not be negative");
+  o = MeasureOptions();
+  o.tangent.max_move_m = -0.1;
+  EXPECT_EQ(CheckMessage(o),
+            "the tangent fit's sideways reach and move, occluder gap and refits must not be "
+            "negative");
   o = MeasureOptions();
   o.tangent.min_views_each_side = -1;
   EXPECT_EQ(CheckMessage(o), "the views each side needs must not be negative");
@@ -174,6 +184,13 @@ TEST(MeasureTrees, ListsEachStemOfAPlotWithItsWidth) {
       {5.0, 0.6, 0.15}, {7.5, -1.8, 0.22}, {4.0, -1.2, 0.08}};
   const MeasureResult r = Measure(MakeScene(truth));
   ExpectListed(truth, r);
+  // Each in plain view: both silhouettes in most views on one circle, and its bark lines up.
+  for (const Stem& s : r.trees) {
+    EXPECT_GT(2 * s.evidence.two_sided_views, s.evidence.tried_views);
+    EXPECT_LT(s.evidence.rms_px, 1.0);
+    EXPECT_GE(s.evidence.bark_pairs, BarkDepthOptions().min_pairs);
+    EXPECT_GT(s.evidence.bark_ncc, BarkDepthOptions().min_peak_ncc);
+  }
   EXPECT_EQ(r.summary["dbh_method"], "tangent");
   EXPECT_GT(r.summary["ground_cells"].get<int>(), 0);
 }

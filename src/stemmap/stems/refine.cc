@@ -53,7 +53,7 @@ int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems) {
 }
 
 SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, const TangentFit& f,
-                                     double px_m) {
+                                     double px_m, bool bark_lines_up) {
   // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
   // neighbour): keep the cloud's estimate and say so. A stem partly hidden from the stereo
   // pairs is wider than its points: silhouettes on both sides in several views that agree to
@@ -66,8 +66,12 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
       two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
   const bool confirmed = !s.weak_support || two_sided;
   // Both sides in most views, agreeing to a pixel, narrower than the points: the cloud took in
-  // what stands beside the stem (a shrub, a sapling). A furrow does not stay tangent across views.
-  const bool narrower_two_sided = two_sided && 2 * f.two_sided_views >= f.tried_views &&
+  // what stands beside the stem (a shrub, a sapling, a sapling's leaves). A furrow does not stay
+  // tangent across views. Where the bark lines up on the fit, a share of the views will do: a
+  // circle inside a stem, or around two things, does not warp one view's bark onto the next.
+  const double two_sided_share = bark_lines_up ? o.narrower_on_bark_two_sided_share : 0.5;
+  const bool narrower_two_sided = two_sided &&
+                                  f.two_sided_views >= two_sided_share * f.tried_views &&
                                   f.radius_m < r0 && f.radius_m > o.tangent.narrow_min_share * r0;
   // A fit from one side that came out wider than the points rests on nothing that can check it
   // (an occluder's edge, the slack of a one-sided circle); a confirmed stem keeps the cloud's
@@ -106,7 +110,7 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   std::vector<Stem> cores = std::exchange(part.alternatives, {});
   std::vector<Stem> larger = std::exchange(part.larger_cloud_part, {});
   const double part_dbh_m = 2 * CloudRadius(part);
-  auto [verdict, s, clean, whole, agrees, sharp] = refine(std::move(part));
+  auto [verdict, s, clean, whole, agrees, sharp, seen_apart] = refine(std::move(part));
   // A fit far narrower than a smeared part with several cores may be one of stems standing
   // one behind another: the cores decide, when two or more of them fit on their own.
   const bool narrow_in_wide = verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
@@ -215,7 +219,9 @@ int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidate
         "stems: larger cloud's stem alone at ({:.2f}, {:.2f}): verdict {}, sharp {}, whole {}",
         r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp, r.whole);
     // Both sides in half the views to a couple of pixels stand as a part's core would alone.
-    if (r.verdict != SilhouetteVerdict::kUse || !(r.sharp || r.whole)) continue;
+    // Straight behind a listed stem, each side in views of its own on one circle stands too:
+    // the nearer stem hides one side from each end of the arm (SidesSeenApart).
+    if (r.verdict != SilhouetteVerdict::kUse || !(r.sharp || r.whole || r.seen_apart)) continue;
     r.stem.flags.Set(StemFlag::kSilhouetteOnly);
     occluders->emplace_back(r.stem.centre_xy.x(), r.stem.centre_xy.y(), 0.5 * r.stem.dbh_m);
     kept->push_back(std::move(r.stem));
@@ -351,7 +357,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
         "{} tried, rms {:.1f} mm, at ({:.3f}, {:.3f})",
         s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
         f.tried_views, 1000 * f.rms_m, f.centre.x(), f.centre.y());
-    SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m);
+    s.evidence = {f.tried_views, f.two_sided_views, f.ok ? f.rms_m / px_m : 0.0,
+                  bark.pairs,    bark.peak_ncc,     bark.ok ? bark.shift_m : 0.0};
+    SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m, bark.ok);
     if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
       const BarkDepth cloud_bark =
           MeasureBarkDepth(o.bark_depth, topt, views, s.centre_xy, r0, breast_z);
@@ -375,9 +383,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     // behind a nearer stem, each side in several views of its own will do (SidesSeenApart): the
     // nearer stem hides one side from each end of the arm. Elsewhere, a stem shows both sides
     // in the same views, and sides only ever seen apart are the edges of two things.
+    const bool seen_apart = behind_nearer && SidesSeenApart(topt, f, px_m);
     const bool clean =
-        (f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m) ||
-        (behind_nearer && SidesSeenApart(topt, f, px_m));
+        (f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m) || seen_apart;
     const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
     const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
     const bool sharp = HasSharpSilhouettes(f, o.larger_cloud_only_max_rms_px, px_m);
@@ -387,7 +395,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
     }
     if (verdict != SilhouetteVerdict::kUse) {
-      return RefinedStem{verdict, std::move(s), clean, whole, agrees, sharp};
+      return RefinedStem{verdict, std::move(s), clean, whole, agrees, sharp, seen_apart};
     }
     // The silhouettes' views replace the cloud's count.
     s.flags.Clear(StemFlag::kFewViews);
@@ -415,7 +423,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }
-    return RefinedStem{verdict, std::move(s), clean, whole, agrees, sharp};
+    return RefinedStem{verdict, std::move(s), clean, whole, agrees, sharp, seen_apart};
   };
   auto refine = [&](Stem s) { return refine_stem(std::move(s), true); };
   const size_t n_larger_only = larger_cloud_only.size();

@@ -23,9 +23,11 @@ enum class SilhouetteVerdict {
   kKeepCloud,  // implausible: the cloud's estimate stays, flagged no_silhouette
   kDrop,       // implausible for a part that needed confirming: not a stem
 };
-// `px_m` is one pixel's footprint at the stem's distance.
+// `px_m` is one pixel's footprint at the stem's distance; `bark_lines_up`: the views warped
+// through the fitted circle line up on its bark (BarkDepth::ok).
 SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& stem,
-                                     const TangentFit& fit, double px_m);
+                                     const TangentFit& fit, double px_m,
+                                     bool bark_lines_up = false);
 
 // Whether a part whose silhouette fit failed is a stem all the same, kept on its cloud: its
 // silhouettes were found on both sides in a quarter of the views tried (a trunk's two edges; a
@@ -50,6 +52,8 @@ struct RefinedStem {
   bool agrees_with_cloud = false;
   // Both sides in at least three views, on one circle to larger_cloud_only_max_rms_px.
   bool sharp = false;
+  // Straight behind a listed stem, each side in views of its own on one circle (SidesSeenApart).
+  bool seen_apart = false;
 };
 struct PartOutcome {
   int fitted = 0;      // stems placed by their silhouettes

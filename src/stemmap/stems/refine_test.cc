@@ -531,6 +531,31 @@ TEST(JudgeSilhouetteFit, NarrowerSilhouettesOnBothSidesInMostViewsOutrankTheClou
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
 }
 
+// A sapling's leaves widen its cloud part, and hide its silhouettes in many views: where the
+// bark lines up on the narrower fit, both sides in a quarter of the views outrank the cloud;
+// without it, half of them must. Swept over the two-sided share, cloud part plain or smeared.
+TEST(JudgeSilhouetteFit, ANarrowerFitWhoseBarkLinesUpNeedsFewerTwoSidedViews) {
+  const MeasureOptions o;
+  for (const bool smeared : {false, true}) {
+    for (const int two_sided : {3, 5, 9, 10, 17, 18, 30}) {
+      Case c;
+      c.stem.depth_smeared = smeared;
+      c.fit.radius_m = 0.07;  // under half the cloud's width, over narrow_min_share of it
+      c.fit.tried_views = c.fit.views = 36;
+      c.fit.two_sided_views = two_sided;
+      for (const bool bark : {false, true}) {
+        const double share = bark ? o.narrower_on_bark_two_sided_share : 0.5;
+        const bool used = two_sided >= share * 36;
+        const SilhouetteVerdict want =
+            used ? SilhouetteVerdict::kUse : SilhouetteVerdict::kKeepCloud;
+        EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, bark), want)
+            << two_sided << " of 36 two-sided, bark " << (bark ? "lines up" : "does not")
+            << (smeared ? ", smeared" : "");
+      }
+    }
+  }
+}
+
 TEST(JudgeSilhouetteFit, RequiringSilhouettesDropsWhatNoneConfirms) {
   Case c;
   c.fit.ok = false;

@@ -107,6 +107,17 @@ class StemFlags {
   uint8_t bits_ = 0;
 };
 
+// What the silhouettes and the bark said of a stem's fit, for checking it tree by tree
+// (stems_detail.csv); zero where no silhouette fit was made.
+struct FitEvidence {
+  int tried_views = 0;        // keyframes that should see the stem
+  int two_sided_views = 0;    // of them, those that showed both of its silhouettes
+  double rms_px = 0.0;        // the silhouette rays' scatter about the circle, pixels at the stem
+  int bark_pairs = 0;         // keyframe pairs whose bark was compared through the circle
+  double bark_ncc = 0.0;      // their mean correlation where the bark lines up best
+  double bark_shift_m = 0.0;  // how far that moved the circle along the line of sight
+};
+
 struct Stem {
   Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();  // plot frame, at breast height
   double ground_z_m = 0.0;  // the ground on its uphill side (GroundGrid::UphillHeight)
@@ -123,6 +134,7 @@ struct Stem {
   double lean_deg = 0.0;
   double pass_through = 0.0;  // free-space ratio
   double fit_shift_m = 0.0;   // how far the silhouette fit moved the centre from the cloud's
+  FitEvidence evidence;
   // The points were smeared along the line of sight (far stems): centre and width come from
   // their spread across it, and neither is a reliable check on the silhouettes.
   bool depth_smeared = false;

@@ -35,9 +35,10 @@ void TangentOptions::Check() const {
   if (!(huber_m > 0 && prior_share_of_distance > 0 && min_rays >= 3)) {
     throw InputError("the tangent fit needs a positive robust scale and prior, and 3 rays");
   }
-  if (!(max_sideways_m >= 0 && occluder_min_gap_m >= 0 && refits >= 0)) {
+  if (!(max_sideways_m >= 0 && max_move_m >= 0 && max_move_prior_sigmas >= 0 &&
+        occluder_min_gap_m >= 0 && refits >= 0)) {
     throw InputError(
-        "the tangent fit's sideways reach, occluder gap and refits must not be negative");
+        "the tangent fit's sideways reach and move, occluder gap and refits must not be negative");
   }
   if (!std::ranges::all_of(wide_start_scales, [](double k) { return k > 1; })) {
     throw InputError("the wide starts' scales must exceed 1");
@@ -286,10 +287,12 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     if (static_cast<int>(normals.size()) < o.min_rays) return fit;
     Eigen::Vector2d c_new;
     double r_new, r_sd, rms;
-    CentrePrior prior{centre0, o.prior_share_of_distance * centre0.norm() + 0.05, o.huber_m};
+    CentrePrior prior{centre0, o.PriorSigmaAt(centre0), o.huber_m};
     bool solved = SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms,
                                      nullptr, &prior);
-    auto implausible = [&] { return (c_new - centre0).norm() > 0.5 || r_new > 3 * radius0 + 0.1; };
+    auto implausible = [&] {
+      return (c_new - centre0).norm() > o.MaxMoveFrom(centre0) || r_new > 3 * radius0 + 0.1;
+    };
     if ((side_rays[0] == 0 || side_rays[1] == 0) && (!solved || implausible())) {
       // Rays from one side only leave the width free, and here they found none that fits: the
       // cloud's width holds it, the rays place it.
@@ -312,7 +315,12 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
     if (std::abs(across.dot(c_new - centre0)) > std::max(o.max_sideways_m, r_start)) return fit;
     // A refit that jumps away from an accepted one lost the silhouettes it had: keep that one.
-    if (fit.ok && std::abs(r_new - fit.radius_m) > 0.25 * fit.radius_m) return fit;
+    // One that found as many silhouettes or more around it converged onto the stem from a start
+    // too wide or too narrow.
+    if (fit.ok && std::abs(r_new - fit.radius_m) > 0.25 * fit.radius_m &&
+        static_cast<int>(normals.size()) < fit.rays) {
+      return fit;
+    }
     c = c_new;
     r = r_new;
     fit.ok = true;

@@ -43,7 +43,12 @@ struct TangentOptions {
   // The starting centre (from the cloud) as a prior of this share of the stem's distance.
   double prior_share_of_distance = 0.05;
   int min_rays = 8;
-  double max_sideways_m = 0.1;      // across the line of sight from the start (or its radius)
+  double max_sideways_m = 0.1;  // across the line of sight from the start (or its radius)
+  // From the start in any direction, at most this, or this many times the centre prior's sigma
+  // where that is more (MaxMoveFrom): farther, the fit found another stem. The cloud of a far
+  // stem, smeared along the line of sight, misjudges its depth by more than half a metre.
+  double max_move_m = 0.5;
+  double max_move_prior_sigmas = 2.0;
   double occluder_min_gap_m = 0.5;  // nearer stems closer than this to the stem are itself
   int refits = 2;                   // edge search again around the refined circle
   // The search also starts from the stem's radius times these (the cloud sees part of a stem
@@ -91,6 +96,14 @@ struct TangentOptions {
   int min_views_each_side = 4;
   // The largest radius, as a multiple of radius0, that a fit from these starts may reach:
   // a little beyond the widest (a fit grows from its start), and 2.5 without wide starts.
+  // The centre prior's sigma for a start at centre0 (CentrePrior::sigma_m).
+  double PriorSigmaAt(const Eigen::Vector2d& centre0) const {
+    return prior_share_of_distance * centre0.norm() + 0.05;
+  }
+  // How far a fit may move from a start at centre0.
+  double MaxMoveFrom(const Eigen::Vector2d& centre0) const {
+    return std::max(max_move_m, max_move_prior_sigmas * PriorSigmaAt(centre0));
+  }
   double WidestFitScale() const {
     const double widest =
         wide_start_scales.empty() ? 0.0 : *std::ranges::max_element(wide_start_scales);
@@ -118,11 +131,11 @@ struct TangentOptions {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TangentOptions, background_parallax_px, max_neighbour_offset, rows_half, band_half_height_m,
     max_bands_each_side, search_px, search_share, min_contrast, min_brightness_contrast, huber_m,
-    prior_share_of_distance, min_rays, max_sideways_m, occluder_min_gap_m, refits,
-    wide_start_scales, recheck_wider_scale, recheck_min_gain, recheck_rms_slack_px,
-    narrow_start_scales, narrow_max_rms_px, narrow_min_share, sideways_start_shifts,
-    pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share, settle_few_views,
-    min_views_each_side, refine_on_brightness, blur_sigma_px)
+    prior_share_of_distance, min_rays, max_sideways_m, max_move_m, max_move_prior_sigmas,
+    occluder_min_gap_m, refits, wide_start_scales, recheck_wider_scale, recheck_min_gain,
+    recheck_rms_slack_px, narrow_start_scales, narrow_max_rms_px, narrow_min_share,
+    sideways_start_shifts, pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share,
+    settle_few_views, min_views_each_side, refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
@@ -198,7 +211,7 @@ bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const Tang
 
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
 // The circle found stays within max_sideways_m (or the radius a start supposes, radius0 or a wide
-// one) of centre0 across the line of sight and within 0.5 m of it.
+// one) of centre0 across the line of sight and within MaxMoveFrom(centre0) of it.
 // `accept`, when given, judges a fit on other evidence (e.g. the bark, bark_depth.h): a stem seen
 // two-sided in few views takes the best of the starts' fits that it accepts (FitSeenInFewViews).
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
