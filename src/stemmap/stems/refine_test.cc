@@ -227,6 +227,28 @@ TEST(AddLargerCloudOnlyStems, ListsWholeFitsThatAreNotSharp) {
   EXPECT_EQ(kept[0].flags.Names(), std::vector<std::string_view>{"silhouette_only"});
 }
 
+// Straight behind a listed stem, a fit whose sides show in views of their own (SidesSeenApart)
+// is listed though neither sharp nor whole: the nearer stem hides one side from each end of the
+// arm, so both sides seldom show in one view.
+TEST(AddLargerCloudOnlyStems, ListsFitsBehindANearerStemWhoseSidesShowApart) {
+  const MeasureOptions o;
+  std::vector<Stem> kept = {Fitted(2.59, -0.68, 0.18, 0.0)};
+  std::vector<Eigen::Vector3d> occluders = {{2.59, -0.68, 0.09}};
+  const std::vector<Stem> candidates = {Fitted(3.93, -1.08, 0.236, 0.0),  // sides seen apart
+                                        Fitted(5.9, -1.6, 0.2, 0.0)};     // neither
+  const int added = AddLargerCloudOnlyStems(
+      o, candidates,
+      [&](Stem s) {
+        const bool apart = s.centre_xy.x() < 5;
+        return RefinedStem{
+            SilhouetteVerdict::kUse, std::move(s), apart, false, false, false, apart};
+      },
+      &kept, &occluders);
+  EXPECT_EQ(added, 1);
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_DOUBLE_EQ(kept[1].centre_xy.x(), 3.93);
+}
+
 TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
   const MeasureOptions o;
   std::vector<Stem> kept = {Fitted(-4.44, 1.24, 0.243, 0.0)};
