@@ -413,8 +413,7 @@ bool FitPooledSilhouettes(const TangentOptions& o, const std::vector<const Tange
   }
   Eigen::Vector2d c;
   double r, r_sd, rms;
-  const CentrePrior prior{best.head<2>(), o.prior_share_of_distance * best.head<2>().norm() + 0.05,
-                          o.huber_m};
+  const CentrePrior prior{best.head<2>(), o.PriorSigmaAt(best.head<2>()), o.huber_m};
   if (!SolveTangentCircle(in_normals, in_origins, o.huber_m, &c, &r, &r_sd, &rms, nullptr,
                           &prior)) {
     return false;
