@@ -73,8 +73,8 @@ void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part,
 
 // The larger cloud's stems alone (`candidates`, nearest first), each tried where no stem of
 // `kept` stands within MeasureOptions::larger_cloud_part_gap_m of it: listed (flagged
-// silhouette_only, and added to the occluders) when `refine` uses its fit and finds it sharp
-// or whole (RefinedStem).
+// silhouette_only, and added to the occluders) when `refine` uses its fit and finds it sharp,
+// whole, or straight behind a listed stem with its sides seen apart (RefinedStem).
 // Returns how many were listed.
 int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidates,
                             const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept,
