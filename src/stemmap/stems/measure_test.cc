@@ -78,6 +78,9 @@ TEST(MeasureOptions, TheSilhouettesSettingsAreChecked) {
             "the tangent fit's sideways reach and move, occluder gap and refits must not be "
             "negative");
   o = MeasureOptions();
+  o.tangent.on_bark_max_rms_px = -1;
+  EXPECT_EQ(CheckMessage(o), "the rms of a fit the bark lines up on must not be negative");
+  o = MeasureOptions();
   o.tangent.min_views_each_side = -1;
   EXPECT_EQ(CheckMessage(o), "the views each side needs must not be negative");
   o = MeasureOptions();

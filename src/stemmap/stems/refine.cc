@@ -333,7 +333,12 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       CheckFitOnBark(o.bark_depth, topt, views, breast_z, &copy);
       return copy.ok;
     };
-    TangentFit f = FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark);
+    auto bark_lines_up = [&](const TangentFit& candidate) {
+      return MeasureBarkDepth(o.bark_depth, topt, views, candidate.centre, candidate.radius_m,
+                              breast_z)
+          .ok;
+    };
+    TangentFit f = FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark, bark_lines_up);
     const double px_m = s.centre_xy.norm() / camera.fx;
     const TangentFit outline = f;
     const BarkDepth bark = CheckFitOnBark(o.bark_depth, topt, views, breast_z, &f);

@@ -55,6 +55,9 @@ void TangentOptions::Check() const {
   if (!(narrow_max_rms_px > 0 && narrow_min_share >= 0 && narrow_min_share <= 1)) {
     throw InputError("the narrower fit's rms must be positive and its share within [0, 1]");
   }
+  if (!(on_bark_max_rms_px >= 0)) {
+    throw InputError("the rms of a fit the bark lines up on must not be negative");
+  }
   if (!(pooled_min_extra_rays >= 0 && few_views_min_two_sided >= 0 && few_views_min_share >= 0 &&
         few_views_min_share <= 1)) {
     throw InputError(
@@ -539,10 +542,16 @@ bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const Tang
          std::abs(across.dot(wider.centre - fit.centre)) < o.max_sideways_m;
 }
 
-TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
-                          const Eigen::Vector2d& centre0, double radius0, double breast_z,
-                          const std::function<bool(const TangentFit&)>& accept) {
+namespace {
+
+// The fit of the start FitTangentRays chooses; every start's fit is appended to `tried`.
+TangentFit ChooseAmongStarts(const TangentOptions& o, const TangentViews& v,
+                             const Eigen::Vector2d& centre0, double radius0, double breast_z,
+                             const std::function<bool(const TangentFit&)>& accept,
+                             std::vector<TangentFit>* tried_out) {
+  std::vector<TangentFit>& tried = *tried_out;
   TangentFit fit = FitTangentRaysFrom(o, v, centre0, radius0, radius0, breast_z);
+  tried.push_back(fit);
   const double px_m = centre0.norm() / v.camera->fx;
   // Most views two-sided: the start was right, unless a wider start settles on a wider circle
   // as cleanly. Neighbours are compared through the fitted circle, so one too narrow leaves the
@@ -550,8 +559,9 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
   // make edges outside the stem.
   if (fit.ok && 2 * fit.two_sided_views >= fit.tried_views) {
     if (o.recheck_wider_scale <= 0) return fit;
-    const TangentFit wider =
-        FitTangentRaysFrom(o, v, centre0, radius0, o.recheck_wider_scale * radius0, breast_z);
+    tried.push_back(
+        FitTangentRaysFrom(o, v, centre0, radius0, o.recheck_wider_scale * radius0, breast_z));
+    const TangentFit& wider = tried.back();
     const bool cleaner = WiderRecheckWins(o, fit, wider, centre0, radius0, px_m);
     if (cleaner) {
       spdlog::debug("tangent: wider start ({:.2f}, {:.2f}) r {:.3f} rms {:.1f} mm over r {:.3f}",
@@ -560,7 +570,6 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     }
     return cleaner ? wider : fit;
   }
-  std::vector<TangentFit> tried = {fit};
   // A narrower start must find both sides in several views, tangent to one circle to about a
   // pixel, and no narrower than a share of the cloud's width: inside a stem, bark and the border
   // of sun and shade give loose pairs of edges too.
@@ -625,6 +634,52 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
     return pooled;
   }
   return fit;
+}
+
+}  // namespace
+
+std::optional<TangentFit> FitTheBarkLinesUpOn(
+    const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
+    double radius0, double px_m, const std::function<bool(const TangentFit&)>& bark_lines_up) {
+  std::vector<const TangentFit*> candidates;
+  for (const TangentFit& f : tried) {
+    const bool shaped = f.ok && f.two_sided_views >= 3 && 2 * f.two_sided_views >= f.tried_views &&
+                        f.rms_m < o.on_bark_max_rms_px * px_m &&
+                        f.radius_m > o.narrow_min_share * radius0 &&
+                        f.radius_m < o.WidestFitScale() * radius0;
+    const bool same = (f.centre - chosen.centre).norm() < 1e-9 && f.radius_m == chosen.radius_m;
+    if (shaped && !same) candidates.push_back(&f);
+  }
+  std::ranges::stable_sort(candidates, [](const TangentFit* a, const TangentFit* b) {
+    return a->two_sided_views > b->two_sided_views;
+  });
+  for (const TangentFit* f : candidates) {
+    if (bark_lines_up(*f)) return *f;
+  }
+  return std::nullopt;
+}
+
+TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
+                          const Eigen::Vector2d& centre0, double radius0, double breast_z,
+                          const std::function<bool(const TangentFit&)>& accept,
+                          const std::function<bool(const TangentFit&)>& bark_lines_up) {
+  std::vector<TangentFit> tried;
+  const TangentFit fit = ChooseAmongStarts(o, v, centre0, radius0, breast_z, accept, &tried);
+  // The starts' fits are ranked by their silhouettes alone, and a circle around two things
+  // (a thin stem and the outline of a thicker one behind it, a stem and a gap) can show both
+  // sides in more views than the stem's own. It does not warp one view's bark onto the next:
+  // when the bark does not line up on the chosen fit, a start's fit it lines up on replaces it.
+  if (!fit.ok || !bark_lines_up || bark_lines_up(fit)) return fit;
+  const double px_m = centre0.norm() / v.camera->fx;
+  const std::optional<TangentFit> on_bark =
+      FitTheBarkLinesUpOn(o, tried, fit, radius0, px_m, bark_lines_up);
+  if (!on_bark) return fit;
+  spdlog::debug(
+      "tangent: ({:.2f}, {:.2f}) r {:.3f} ({} two-sided) replaces r {:.3f}: the bark lines up on "
+      "it",
+      on_bark->centre.x(), on_bark->centre.y(), on_bark->radius_m, on_bark->two_sided_views,
+      fit.radius_m);
+  return *on_bark;
 }
 
 }  // namespace stemmap::stems

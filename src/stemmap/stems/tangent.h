@@ -68,6 +68,9 @@ struct TangentOptions {
   // sapling, a shrub), and a start that wide takes their gaps for the stem's inside.
   std::vector<double> narrow_start_scales = {0.5};
   double narrow_max_rms_px = 1.2;  // ray rms (px at the stem) a narrower start's fit must keep
+  // A start's fit the bark lines up on, two-sided in most of its views and tangent to one circle
+  // to within this rms (px at the stem), replaces a chosen fit the bark does not line up on.
+  double on_bark_max_rms_px = 2.0;
   double narrow_min_share = 0.35;  // of radius0: the narrowest fit that can stand for the stem
   // And from the centre moved across the line of sight by these multiples of radius0 (each way):
   // stereo smears a stem's points onto what stands beside it, so the cloud can place a thin stem
@@ -134,8 +137,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     prior_share_of_distance, min_rays, max_sideways_m, max_move_m, max_move_prior_sigmas,
     occluder_min_gap_m, refits, wide_start_scales, recheck_wider_scale, recheck_min_gain,
     recheck_rms_slack_px, narrow_start_scales, narrow_max_rms_px, narrow_min_share,
-    sideways_start_shifts, pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share,
-    settle_few_views, min_views_each_side, refine_on_brightness, blur_sigma_px)
+    on_bark_max_rms_px, sideways_start_shifts, pooled_min_extra_rays, few_views_min_two_sided,
+    few_views_min_share, settle_few_views, min_views_each_side, refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
@@ -209,14 +212,25 @@ void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);
 bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const TangentFit& wider,
                       const Eigen::Vector2d& centre0, double radius0, double px_m);
 
+// Among the starts' fits `tried`, the one with both sides in the most views (in most of its own,
+// within on_bark_max_rms_px of one circle; px_m: metres a pixel spans at the stem, and no
+// narrower than narrow_min_share or wider than the widest start of radius0) that `bark_lines_up`
+// accepts, other than `chosen`. None when no such fit is accepted.
+std::optional<TangentFit> FitTheBarkLinesUpOn(
+    const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
+    double radius0, double px_m, const std::function<bool(const TangentFit&)>& bark_lines_up);
+
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
 // The circle found stays within max_sideways_m (or the radius a start supposes, radius0 or a wide
 // one) of centre0 across the line of sight and within MaxMoveFrom(centre0) of it.
 // `accept`, when given, judges a fit on other evidence (e.g. the bark, bark_depth.h): a stem seen
 // two-sided in few views takes the best of the starts' fits that it accepts (FitSeenInFewViews).
+// `bark_lines_up`, when given, says whether views warped through a fit's circle line up (its
+// bark seen on it): a chosen fit it does not line up on gives way to FitTheBarkLinesUpOn.
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z,
-                          const std::function<bool(const TangentFit&)>& accept = {});
+                          const std::function<bool(const TangentFit&)>& accept = {},
+                          const std::function<bool(const TangentFit&)>& bark_lines_up = {});
 
 // Where a disagreement profile first rises above tau going from `start` in direction dir (+1 or
 // -1) and stays above it on average over the next `run` samples: bark that the warp misaligns on

@@ -10,6 +10,7 @@
 #include "stemmap/camera/camera.h"
 #include "stemmap/core/pose.h"
 #include "stemmap/core/rng.h"
+#include "stemmap/stems/bark_depth.h"
 #include "stemmap/stems/silhouette.h"
 #include "stemmap/stems/test_scene.h"
 
@@ -448,6 +449,42 @@ TEST(Tangent, FitsAThinStemTheCloudPlacedAWidthToOneSide) {
     in_place.sideways_start_shifts.clear();
     const TangentFit unmoved = FitTangentRays(in_place, views, start, radius, 1.37);
     EXPECT_FALSE(unmoved.ok && std::abs(across.dot(unmoved.centre - centre)) < 0.02);
+  }
+}
+
+// A thin stem straight in front of a thicker one whose outline surrounds its own in most views:
+// the cloud merged the thin stem's points with the thick one's bark beside it, a width to one
+// side and half again as wide. From there the silhouettes settle on a circle around the thin
+// stem's side and the thick one's, both sides in most views; a start moved across the line of
+// sight finds the thin stem's own. The bark lines up on the thin stem's circle only, and decides.
+TEST(Tangent, AThinStemInFrontOfAThickerOneKeepsItsOwnOutlineWhereItsBarkLinesUp) {
+  const PinholeCamera camera = PinholeCamera::FromHfov(960, 540, 67.0);
+  const Eigen::Vector3d thin(7.3, 0.0, 0.063);
+  for (const double offset_m : {0.0, 0.05, 0.1, 0.15}) {
+    const std::vector<Eigen::Vector3d> stems = {thin, {9.1, offset_m, 0.132}};
+    const RenderedStem scene = RenderStems(stems, true, false, Texture::kIrregular, camera);
+    const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+    const Eigen::Vector2d centre = thin.head<2>();
+    const Eigen::Vector2d across = Eigen::Vector2d(-centre.y(), centre.x()).normalized();
+    const Eigen::Vector2d start = centre + 2 * thin.z() * across;
+    TangentOptions o;
+    const BarkDepthOptions bark;
+    const auto lines_up = [&](const TangentFit& f) {
+      return MeasureBarkDepth(bark, o, views, f.centre, f.radius_m, 1.3).ok;
+    };
+    SCOPED_TRACE(::testing::Message() << "offset " << offset_m << " m");
+    const TangentFit fit = FitTangentRays(o, views, start, 1.45 * thin.z(), 1.3, {}, lines_up);
+    ASSERT_TRUE(fit.ok);
+    // A pixel is 10 mm at the stem here.
+    EXPECT_NEAR(fit.radius_m, thin.z(), 0.007);
+    // Across the line of sight within half a pixel; along it, where the short arc's parallax
+    // holds it (the bark's shift places it later), within 8 cm.
+    EXPECT_LT(std::abs(across.dot(fit.centre - centre)), 0.005);
+    EXPECT_LT((fit.centre - centre).norm(), 0.08);
+    // The silhouettes alone take a circle around the thin stem's side and the thick one's: 0.1-0.25
+    // m to the side, 1.2-1.3 times as wide.
+    const TangentFit outline = FitTangentRays(o, views, start, 1.45 * thin.z(), 1.3);
+    EXPECT_GT((outline.centre - centre).norm(), 0.05);
   }
 }
 
