@@ -33,6 +33,9 @@ void BarkDepthOptions::Check() const {
     throw InputError("the bark's surface correlation must not exceed its peak correlation");
   }
   if (min_pairs < 2) throw InputError("bark depth needs at least 2 pairs");
+  if (!(max_hidden_view_share >= 0 && max_hidden_view_share < 1)) {
+    throw InputError("the share of views leaves may hide from the bark must lie in [0, 1)");
+  }
 }
 
 namespace {
@@ -87,6 +90,33 @@ BarkView SeesBark(const TangentOptions& t, const TangentViews& v, int k, const E
   }
   out.sees = out.x_hi - out.x_lo >= std::max(4.0, 1.5 * half);
   return out;
+}
+
+// Views where something stands in front of the stem's bark (a sapling's crown, leaves, a shrub):
+// every pair a view is in stays below min_surface_ncc at every distance. Those views are left out
+// when they are at most max_hidden_view_share of the views compared; more, and the circle's inside
+// is no one stem's bark, and no view is left out.
+std::vector<char> ViewsHiddenFromTheBark(const BarkDepthOptions& o,
+                                         const std::vector<std::array<int, 2>>& pairs,
+                                         const std::vector<std::vector<double>>& ncc,
+                                         const std::vector<char>& complete, int n_kf) {
+  std::vector<double> best(n_kf, -2.0);  // per view, the best correlation of its pairs
+  std::vector<char> compared(n_kf, 0);
+  for (size_t p = 0; p < pairs.size(); ++p) {
+    if (!complete[p]) continue;
+    const double peak = *std::ranges::max_element(ncc[p]);
+    for (int k : pairs[p]) best[k] = std::max(best[k], peak), compared[k] = 1;
+  }
+  std::vector<char> hidden(n_kf, 0);
+  int n_compared = 0, n_hidden = 0;
+  for (int k = 0; k < n_kf; ++k) {
+    if (!compared[k]) continue;
+    ++n_compared;
+    hidden[k] = best[k] < o.min_surface_ncc;
+    n_hidden += hidden[k];
+  }
+  if (n_hidden > o.max_hidden_view_share * n_compared) std::ranges::fill(hidden, 0);
+  return hidden;
 }
 
 }  // namespace
@@ -202,11 +232,17 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
       ncc[p][i] = cov / std::sqrt(var_a * var_b);
     }
   }
-  // The mean over pairs that compared at every distance, so that each distance has the same pairs.
+  // The mean over pairs that compared at every distance, so that each distance has the same pairs,
+  // and that show the bark in both views.
+  std::vector<char> complete(pairs.size());
+  for (size_t p = 0; p < pairs.size(); ++p) {
+    complete[p] = std::ranges::none_of(ncc[p], [](double x) { return std::isnan(x); });
+  }
+  const std::vector<char> hidden = ViewsHiddenFromTheBark(o, pairs, ncc, complete, n_kf);
   std::vector<double> score(n_steps, 0.0);
-  for (const std::vector<double>& curve : ncc) {
-    if (std::ranges::any_of(curve, [](double x) { return std::isnan(x); })) continue;
-    for (int i = 0; i < n_steps; ++i) score[i] += curve[i];
+  for (size_t p = 0; p < pairs.size(); ++p) {
+    if (!complete[p] || hidden[pairs[p][0]] || hidden[pairs[p][1]]) continue;
+    for (int i = 0; i < n_steps; ++i) score[i] += ncc[p][i];
     ++out.pairs;
   }
   if (out.pairs < o.min_pairs) return out;

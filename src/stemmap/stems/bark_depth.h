@@ -39,6 +39,10 @@ struct BarkDepthOptions {
   // and what lies behind it. Nor is it when the bark lines up best at the end of the search: the
   // silhouettes put the circle farther than search_m from the bark they enclose.
   double min_surface_ncc = 0.3;
+  // Views whose every pair stays below min_surface_ncc show something in front of the bark (a
+  // sapling's crown, leaves, a shrub) and are left out, when they are at most this share of the
+  // views compared.
+  double max_hidden_view_share = 0.34;
   void Check() const;
 };
 
@@ -48,7 +52,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(BarkDepthOptions, enabled, basel
                                                 baseline_share, min_baseline_m, band_half_height_m,
                                                 inner_share, search_m, step_m, max_pixels,
                                                 min_pixels, min_pairs, min_peak_ncc,
-                                                min_peak_contrast, min_surface_ncc)
+                                                min_peak_contrast, min_surface_ncc,
+                                                max_hidden_view_share)
 
 struct BarkDepth {
   bool ok = false;

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <opencv2/core.hpp>
+
 #include "stemmap/core/error.h"
 #include "stemmap/stems/test_scene.h"
 
@@ -94,6 +96,47 @@ TEST(BarkDepth, PartlyHiddenBarkStillPlacesTheStem) {
   EXPECT_NEAR(d.shift_m, -0.1, 0.015);
 }
 
+// Leaves in front of the stem (a sapling's crown, swaying) cover its bark from part of the arc:
+// those views' pairs line up nowhere, and with them in the mean the bark looks like no stem's.
+// Left out, the rest place the stem; when they are more than a third of the views, nothing is
+// left out and the bark says nothing.
+TEST(BarkDepth, ViewsWhereLeavesCoverTheBarkAreLeftOut) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.15;
+  RenderedStem scene =
+      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Texture::kIrregular);
+  cv::RNG rng(5);
+  const auto cover = [&](int k) {  // leaves, different in every view, over the stem's middle
+    const Rigid3d cam_from_world = scene.keyframes[k].world_from_cam.Inverse();
+    const Eigen::Vector3d p = cam_from_world * Eigen::Vector3d(centre.x(), centre.y(), 1.37);
+    if (p.z() <= 0) return;
+    const Eigen::Vector2d px = scene.camera.ImageFromCam(p);
+    const double half_px = 1.5 * scene.camera.fx * radius / p.z();
+    const cv::Rect box = cv::Rect(cv::Point(px.x() - half_px, px.y() - 40),
+                                  cv::Point(px.x() + half_px, px.y() + 40)) &
+                         cv::Rect(0, 0, scene.camera.width, scene.camera.height);
+    if (box.area() > 0) rng.fill(scene.gray[k](box), cv::RNG::UNIFORM, 40, 200);
+  };
+  for (int k = 26; k < 34; ++k) cover(k);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  const Start s = MovedAlongTheLineOfSight(centre, radius, 0.1);
+  const BarkDepth d =
+      MeasureBarkDepth(BarkDepthOptions(), TangentOptions(), views, s.centre, s.radius, 1.37);
+  ASSERT_TRUE(d.ok);
+  EXPECT_NEAR(d.shift_m, -0.1, 0.015);
+  EXPECT_GT(d.peak_ncc, 0.8);
+  BarkDepthOptions all_views;
+  all_views.max_hidden_view_share = 0;
+  const BarkDepth mean_of_all =
+      MeasureBarkDepth(all_views, TangentOptions(), views, s.centre, s.radius, 1.37);
+  EXPECT_FALSE(mean_of_all.ok);
+  // Leaves over half the views: the circle's inside is taken for no stem's bark.
+  for (int k = 10; k < 26; ++k) cover(k);
+  const BarkDepth mostly_hidden =
+      MeasureBarkDepth(BarkDepthOptions(), TangentOptions(), views, s.centre, s.radius, 1.37);
+  EXPECT_FALSE(mostly_hidden.ok);
+}
+
 TEST(BarkDepth, OptionsAreChecked) {
   EXPECT_NO_THROW(BarkDepthOptions().Check());
   BarkDepthOptions o;
@@ -104,6 +147,9 @@ TEST(BarkDepth, OptionsAreChecked) {
   EXPECT_THROW(o.Check(), InputError);
   o = BarkDepthOptions();
   o.min_pixels = o.max_pixels + 1;
+  EXPECT_THROW(o.Check(), InputError);
+  o = BarkDepthOptions();
+  o.max_hidden_view_share = 1.0;
   EXPECT_THROW(o.Check(), InputError);
 }
 
