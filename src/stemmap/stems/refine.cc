@@ -327,21 +327,26 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
   // the coarse points' width, too rough to confirm an outline the bark does not.
   auto refine_stem = [&](Stem s, bool outline_may_outweigh_bark) {
     const double breast_z = s.floor_z_m + o.stems.breast_height_m;
+    // Views where something covers the bark are left out for a part of the cloud, whose surface
+    // says a stem stands there; a stem the larger cloud alone saw has none, and its bark must
+    // line up in every view that shows it (a sapling's leafy crown lines up in some).
+    BarkDepthOptions bark_options = o.bark_depth;
+    if (!outline_may_outweigh_bark) bark_options.max_hidden_view_share = 0;
     const double r0 = CloudRadius(s);
     auto on_bark = [&](const TangentFit& candidate) {
       TangentFit copy = candidate;
-      CheckFitOnBark(o.bark_depth, topt, views, breast_z, &copy);
+      CheckFitOnBark(bark_options, topt, views, breast_z, &copy);
       return copy.ok;
     };
     auto bark_lines_up = [&](const TangentFit& candidate) {
-      return MeasureBarkDepth(o.bark_depth, topt, views, candidate.centre, candidate.radius_m,
+      return MeasureBarkDepth(bark_options, topt, views, candidate.centre, candidate.radius_m,
                               breast_z)
           .ok;
     };
     TangentFit f = FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark, bark_lines_up);
     const double px_m = s.centre_xy.norm() / camera.fx;
     const TangentFit outline = f;
-    const BarkDepth bark = CheckFitOnBark(o.bark_depth, topt, views, breast_z, &f);
+    const BarkDepth bark = CheckFitOnBark(bark_options, topt, views, breast_z, &f);
     if (!f.ok && outline_may_outweigh_bark &&
         OutlineOutweighsPlainBark(o, outline, bark, r0, px_m)) {
       spdlog::debug(
@@ -367,7 +372,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m, bark.ok);
     if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
       const BarkDepth cloud_bark =
-          MeasureBarkDepth(o.bark_depth, topt, views, s.centre_xy, r0, breast_z);
+          MeasureBarkDepth(bark_options, topt, views, s.centre_xy, r0, breast_z);
       if (BarkConfirmsCloud(s, f, cloud_bark)) {
         spdlog::debug(
             "stems: ({:.2f}, {:.2f}) kept on its cloud: the bark lines up {:+.3f} m off it",
