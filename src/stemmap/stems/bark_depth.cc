@@ -265,4 +265,12 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
   return out;
 }
 
+BarkVerdict JudgeBark(const BarkDepthOptions& o, const BarkDepth& bark) {
+  if (bark.ok) return BarkVerdict::kLinesUp;
+  if (bark.pairs >= o.min_pairs && (bark.peak_ncc < o.min_peak_ncc || bark.at_search_end)) {
+    return BarkVerdict::kLinesUpNowhere;
+  }
+  return BarkVerdict::kSaysNothing;
+}
+
 }  // namespace stemmap::stems

@@ -71,4 +71,9 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& silh
                            const TangentViews& views, const Eigen::Vector2d& centre, double radius,
                            double breast_z);
 
+// What `bark` says of the circle it was measured on: it lines up (ok); it lines up nowhere (enough
+// pairs compared, and below min_peak_ncc at every distance or best at the search's end); or it
+// cannot tell.
+BarkVerdict JudgeBark(const BarkDepthOptions& o, const BarkDepth& bark);
+
 }  // namespace stemmap::stems

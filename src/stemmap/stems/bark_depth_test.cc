@@ -137,6 +137,29 @@ TEST(BarkDepth, ViewsWhereLeavesCoverTheBarkAreLeftOut) {
   EXPECT_FALSE(mostly_hidden.ok);
 }
 
+// The bark lines up, lines up nowhere (a circle around two things), or cannot tell: too few views
+// show it, or it correlates alike at every distance (no peak: it cannot place the circle, which
+// says nothing against it).
+TEST(JudgeBark, TellsBarkThatLinesUpNowhereFromBarkThatCannotTell) {
+  const BarkDepthOptions o;
+  BarkDepth b;
+  b.pairs = o.min_pairs;
+  b.ok = true;
+  EXPECT_EQ(JudgeBark(o, b), BarkVerdict::kLinesUp);
+  b.ok = false;
+  b.peak_ncc = 0.5;
+  EXPECT_EQ(JudgeBark(o, b), BarkVerdict::kLinesUpNowhere);
+  b.peak_ncc = 0.9;
+  b.end_ncc = 0.89;  // no peak
+  EXPECT_EQ(JudgeBark(o, b), BarkVerdict::kSaysNothing);
+  b.at_search_end = true;
+  EXPECT_EQ(JudgeBark(o, b), BarkVerdict::kLinesUpNowhere);
+  b.at_search_end = false;
+  b.peak_ncc = 0.5;
+  b.pairs = o.min_pairs - 1;
+  EXPECT_EQ(JudgeBark(o, b), BarkVerdict::kSaysNothing);
+}
+
 TEST(BarkDepth, OptionsAreChecked) {
   EXPECT_NO_THROW(BarkDepthOptions().Check());
   BarkDepthOptions o;

@@ -338,12 +338,11 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       CheckFitOnBark(bark_options, topt, views, breast_z, &copy);
       return copy.ok;
     };
-    auto bark_lines_up = [&](const TangentFit& candidate) {
-      return MeasureBarkDepth(bark_options, topt, views, candidate.centre, candidate.radius_m,
-                              breast_z)
-          .ok;
+    auto bark_says = [&](const TangentFit& candidate) {
+      return JudgeBark(bark_options, MeasureBarkDepth(bark_options, topt, views, candidate.centre,
+                                                      candidate.radius_m, breast_z));
     };
-    TangentFit f = FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark, bark_lines_up);
+    TangentFit f = FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark, bark_says);
     const double px_m = s.centre_xy.norm() / camera.fx;
     const TangentFit outline = f;
     const BarkDepth bark = CheckFitOnBark(bark_options, topt, views, breast_z, &f);

@@ -640,7 +640,7 @@ TangentFit ChooseAmongStarts(const TangentOptions& o, const TangentViews& v,
 
 std::optional<TangentFit> FitTheBarkLinesUpOn(
     const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
-    double radius0, double px_m, const std::function<bool(const TangentFit&)>& bark_lines_up) {
+    double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&)>& bark) {
   std::vector<const TangentFit*> candidates;
   for (const TangentFit& f : tried) {
     const bool shaped = f.ok && f.two_sided_views >= 3 && 2 * f.two_sided_views >= f.tried_views &&
@@ -654,7 +654,7 @@ std::optional<TangentFit> FitTheBarkLinesUpOn(
     return a->two_sided_views > b->two_sided_views;
   });
   for (const TangentFit* f : candidates) {
-    if (bark_lines_up(*f)) return *f;
+    if (bark(*f) == BarkVerdict::kLinesUp) return *f;
   }
   return std::nullopt;
 }
@@ -662,17 +662,16 @@ std::optional<TangentFit> FitTheBarkLinesUpOn(
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z,
                           const std::function<bool(const TangentFit&)>& accept,
-                          const std::function<bool(const TangentFit&)>& bark_lines_up) {
+                          const std::function<BarkVerdict(const TangentFit&)>& bark) {
   std::vector<TangentFit> tried;
   const TangentFit fit = ChooseAmongStarts(o, v, centre0, radius0, breast_z, accept, &tried);
   // The starts' fits are ranked by their silhouettes alone, and a circle around two things
   // (a thin stem and the outline of a thicker one behind it, a stem and a gap) can show both
   // sides in more views than the stem's own. It does not warp one view's bark onto the next:
-  // when the bark does not line up on the chosen fit, a start's fit it lines up on replaces it.
-  if (!fit.ok || !bark_lines_up || bark_lines_up(fit)) return fit;
+  // when the bark lines up nowhere on the chosen fit, a start's fit it lines up on replaces it.
+  if (!fit.ok || !bark || bark(fit) != BarkVerdict::kLinesUpNowhere) return fit;
   const double px_m = centre0.norm() / v.camera->fx;
-  const std::optional<TangentFit> on_bark =
-      FitTheBarkLinesUpOn(o, tried, fit, radius0, px_m, bark_lines_up);
+  const std::optional<TangentFit> on_bark = FitTheBarkLinesUpOn(o, tried, fit, radius0, px_m, bark);
   if (!on_bark) return fit;
   spdlog::debug(
       "tangent: ({:.2f}, {:.2f}) r {:.3f} ({} two-sided) replaces r {:.3f}: the bark lines up on "

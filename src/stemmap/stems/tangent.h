@@ -212,25 +212,31 @@ void PrepareTangentImages(const TangentOptions& o, std::vector<cv::Mat>* gray);
 bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const TangentFit& wider,
                       const Eigen::Vector2d& centre0, double radius0, double px_m);
 
+// What the bark says of a fit's circle (bark_depth.h measures it): views warped through it line
+// up at one distance; they line up at none (nor within the search), so the circle's inside is no
+// one stem's bark; or it cannot tell (too few views show it, or it lines up alike at every
+// distance tried).
+enum class BarkVerdict { kLinesUp, kLinesUpNowhere, kSaysNothing };
+
 // Among the starts' fits `tried`, the one with both sides in the most views (in most of its own,
 // within on_bark_max_rms_px of one circle; px_m: metres a pixel spans at the stem, and no
-// narrower than narrow_min_share or wider than the widest start of radius0) that `bark_lines_up`
-// accepts, other than `chosen`. None when no such fit is accepted.
+// narrower than narrow_min_share or wider than the widest start of radius0) whose bark lines up,
+// other than `chosen`. None when no such fit is accepted.
 std::optional<TangentFit> FitTheBarkLinesUpOn(
     const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
-    double radius0, double px_m, const std::function<bool(const TangentFit&)>& bark_lines_up);
+    double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&)>& bark);
 
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
 // The circle found stays within max_sideways_m (or the radius a start supposes, radius0 or a wide
 // one) of centre0 across the line of sight and within MaxMoveFrom(centre0) of it.
 // `accept`, when given, judges a fit on other evidence (e.g. the bark, bark_depth.h): a stem seen
 // two-sided in few views takes the best of the starts' fits that it accepts (FitSeenInFewViews).
-// `bark_lines_up`, when given, says whether views warped through a fit's circle line up (its
-// bark seen on it): a chosen fit it does not line up on gives way to FitTheBarkLinesUpOn.
+// `bark`, when given, says what the bark makes of a fit's circle: a chosen fit it lines up nowhere
+// on gives way to FitTheBarkLinesUpOn.
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z,
                           const std::function<bool(const TangentFit&)>& accept = {},
-                          const std::function<bool(const TangentFit&)>& bark_lines_up = {});
+                          const std::function<BarkVerdict(const TangentFit&)>& bark = {});
 
 // Where a disagreement profile first rises above tau going from `start` in direction dir (+1 or
 // -1) and stays above it on average over the next `run` samples: bark that the warp misaligns on

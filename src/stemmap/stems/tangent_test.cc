@@ -470,7 +470,7 @@ TEST(Tangent, AThinStemInFrontOfAThickerOneKeepsItsOwnOutlineWhereItsBarkLinesUp
     TangentOptions o;
     const BarkDepthOptions bark;
     const auto lines_up = [&](const TangentFit& f) {
-      return MeasureBarkDepth(bark, o, views, f.centre, f.radius_m, 1.3).ok;
+      return JudgeBark(bark, MeasureBarkDepth(bark, o, views, f.centre, f.radius_m, 1.3));
     };
     SCOPED_TRACE(::testing::Message() << "offset " << offset_m << " m");
     const TangentFit fit = FitTangentRays(o, views, start, 1.45 * thin.z(), 1.3, {}, lines_up);
