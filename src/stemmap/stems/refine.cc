@@ -267,9 +267,11 @@ bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth&
 }
 
 BarkDepth CheckFitOnBark(const BarkDepthOptions& o, const TangentOptions& t,
-                         const TangentViews& views, double breast_z, TangentFit* fit) {
+                         const TangentViews& views, double breast_z, TangentFit* fit,
+                         const BarkDepth* measured) {
   if (!fit->ok) return {};
-  const BarkDepth bark = MeasureBarkDepth(o, t, views, fit->centre, fit->radius_m, breast_z);
+  const BarkDepth bark =
+      measured ? *measured : MeasureBarkDepth(o, t, views, fit->centre, fit->radius_m, breast_z);
   if (bark.pairs >= o.min_pairs && (bark.peak_ncc < o.min_surface_ncc || bark.at_search_end)) {
     // Views warped through the circle do not line up within reach of it: its inside is no one
     // stem's bark (two stems and the gap between them, a shrub, a stem and what lies behind it),
@@ -338,14 +340,23 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       CheckFitOnBark(bark_options, topt, views, breast_z, &copy);
       return copy.ok;
     };
+    // The bark of the last circle FitTangentRays asked about: mostly the fit it returns, which
+    // the check below would otherwise measure again.
+    TangentFit last_asked;
+    BarkDepth last_bark;
     auto bark_says = [&](const TangentFit& candidate) {
-      return JudgeBark(bark_options, MeasureBarkDepth(bark_options, topt, views, candidate.centre,
-                                                      candidate.radius_m, breast_z));
+      last_asked = candidate;
+      last_bark = MeasureBarkDepth(bark_options, topt, views, candidate.centre, candidate.radius_m,
+                                   breast_z);
+      return JudgeBark(bark_options, last_bark);
     };
     TangentFit f = FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark, bark_says);
+    const bool asked =
+        last_asked.ok && last_asked.centre == f.centre && last_asked.radius_m == f.radius_m;
     const double px_m = s.centre_xy.norm() / camera.fx;
     const TangentFit outline = f;
-    const BarkDepth bark = CheckFitOnBark(bark_options, topt, views, breast_z, &f);
+    const BarkDepth bark =
+        CheckFitOnBark(bark_options, topt, views, breast_z, &f, asked ? &last_bark : nullptr);
     if (!f.ok && outline_may_outweigh_bark &&
         OutlineOutweighsPlainBark(o, outline, bark, r0, px_m)) {
       spdlog::debug(

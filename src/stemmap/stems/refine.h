@@ -94,9 +94,11 @@ bool StandsOnItsOwnSilhouettes(const TangentOptions& o, const TangentFit& fit, d
 
 // The tangent fit checked on the bark: its distance from the bark (returned), and a fit whose bark
 // lines up at no distance (correlation under min_surface_ncc over enough pairs) or best at the end
-// of the search (beyond it, likely) fails.
+// of the search (beyond it, likely) fails. `measured`, when given, is the bark already measured
+// on the fit's circle.
 BarkDepth CheckFitOnBark(const BarkDepthOptions& o, const TangentOptions& t,
-                         const TangentViews& views, double breast_z, TangentFit* fit);
+                         const TangentViews& views, double breast_z, TangentFit* fit,
+                         const BarkDepth* measured = nullptr);
 
 // Whether a fit the bark check rejected (`bark`: its bark's comparison) stands on its outline
 // (MeasureOptions::outline_over_bark_*): bark that lines up nowhere, not best at the end of the
