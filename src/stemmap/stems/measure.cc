@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <utility>
 
 #include "stemmap/core/error.h"
@@ -60,6 +61,9 @@ void MeasureOptions::Check() const {
     throw InputError(
         "the cloud's share within which an outline outweighs its bark must not be negative");
   }
+  if (!(weak_on_bark_max_rms_px >= 0)) {
+    throw InputError("the rms of a weak part's outline on its bark must not be negative");
+  }
   if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
     throw InputError(
         "the share of a part's width below which its cores are tried must lie in [0, 1]");
@@ -82,13 +86,21 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
     // and the bark judge it like any other.
     std::vector<dense::CloudPoint> all = *in.cloud;
     all.insert(all.end(), in.coarse_cloud->begin(), in.coarse_cloud->end());
-    StemsResult more = DetectStems(o.stems, all, ground, in.depth_focal_px);
+    // Its parts no stem as a whole stay so: the coarse points' cores are too rough to stand
+    // for a stem the cloud's own cores missed.
+    StemOptions more_options = o.stems;
+    more_options.split_mixed_parts_into_cores = false;
+    StemsResult more = DetectStems(more_options, all, ground, in.depth_focal_px);
     if (o.larger_cloud_only_max_rms_px > 0) {
       // Where the cloud has no part at all, the larger cloud's stems, vetoed or not: the coarse
       // points of a stem seen past a nearer one for a short turn often smear into its free space.
       std::vector<Stem> candidates = std::move(more.vetoed);
       candidates.insert(candidates.end(), more.stems.begin(), more.stems.end());
-      larger_only = StemsAwayFrom(candidates, o.larger_cloud_part_gap_m, sr.stems);
+      // A core of a part too wide for one stem may be a shrub's: it hides nothing.
+      std::vector<Stem> parts;
+      std::ranges::copy_if(sr.stems, std::back_inserter(parts),
+                           [](const Stem& s) { return !s.mixed_part_core; });
+      larger_only = StemsAwayFrom(candidates, o.larger_cloud_part_gap_m, parts);
       sr.larger_cloud_only = static_cast<int>(larger_only.size());
     }
     sr.larger_cloud_parts =

@@ -84,6 +84,13 @@ struct MeasureOptions {
   double outline_over_bark_two_sided_share = 0.5;
   double outline_over_bark_rms_px = 1.2;
   double outline_over_bark_cloud_share = 0.2;
+  // A part on weak support (little surface at breast height, a steep lean, a core of a part too
+  // wide for one stem) is confirmed by silhouettes on both sides in three views on one circle to
+  // about a pixel; or, where its bark lines up on the fit, by both sides in half the views that
+  // tried it, on one circle to this many pixels (rms, px at the stem): a thick stem's outline
+  // scatters more than a pixel, and neither leaves nor a shrub carry one view's bark onto the
+  // next.
+  double weak_on_bark_max_rms_px = 2.0;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -94,7 +101,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
     larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
     narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
-    outline_over_bark_cloud_share)
+    outline_over_bark_cloud_share, weak_on_bark_max_rms_px)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

@@ -64,7 +64,9 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
   const bool wider_two_sided =
       two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
-  const bool confirmed = !s.weak_support || two_sided;
+  const bool whole_on_bark = bark_lines_up && 2 * f.two_sided_views >= f.tried_views &&
+                             f.rms_m < o.weak_on_bark_max_rms_px * px_m;
+  const bool confirmed = !s.weak_support || two_sided || whole_on_bark;
   // Both sides in most views, agreeing to a pixel, narrower than the points: the cloud took in
   // what stands beside the stem (a shrub, a sapling, a sapling's leaves). A furrow does not stay
   // tangent across views. Where the bark lines up on the fit, a share of the views will do: a
@@ -110,7 +112,17 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   std::vector<Stem> cores = std::exchange(part.alternatives, {});
   std::vector<Stem> larger = std::exchange(part.larger_cloud_part, {});
   const double part_dbh_m = 2 * CloudRadius(part);
+  const bool mixed_part_core = part.mixed_part_core;
   auto [verdict, s, clean, whole, agrees, sharp, seen_apart] = refine(std::move(part));
+  // A core of a part no stem as a whole stands, as any part's core, on clean silhouettes only.
+  if (mixed_part_core && verdict == SilhouetteVerdict::kUse && !clean) {
+    spdlog::debug(
+        "stems: core ({:.2f}, {:.2f}) of a part no stem as a whole dropped: its "
+        "silhouettes are not clean",
+        s.centre_xy.x(), s.centre_xy.y());
+    out.dropped = 1;
+    return out;
+  }
   // A fit far narrower than a smeared part with several cores may be one of stems standing
   // one behind another: the cores decide, when two or more of them fit on their own.
   const bool narrow_in_wide = verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
@@ -190,8 +202,9 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   return out;
 }
 
-void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part,
+void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part, bool mixed_part_core,
                           std::vector<Eigen::Vector3d>* occluders) {
+  if (fitted.empty() && mixed_part_core) (*occluders)[part] = kNoOccluder;
   for (size_t k = 0; k < fitted.size(); ++k) {
     const Stem& s = fitted[k];
     const Eigen::Vector3d circle(s.centre_xy.x(), s.centre_xy.y(),
@@ -209,9 +222,11 @@ int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidate
                             std::vector<Eigen::Vector3d>* occluders) {
   int added = 0;
   for (Stem& c : candidates) {
+    // The candidate's own circle is its cloud's, often smeared wide along the line of sight: it
+    // is taken only where its centre lies on a kept stem. A fit that slides onto one is dropped
+    // later (DropStemsFittedTwice).
     const bool taken = std::ranges::any_of(*kept, [&](const Stem& k) {
-      return (k.centre_xy - c.centre_xy).norm() - 0.5 * (k.dbh_m + c.dbh_m) <
-             o.larger_cloud_part_gap_m;
+      return (k.centre_xy - c.centre_xy).norm() - 0.5 * k.dbh_m < o.larger_cloud_part_gap_m;
     });
     if (taken) continue;
     RefinedStem r = refine(std::move(c));
@@ -452,8 +467,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
   // stems' fitted silhouettes rather than at the cloud's rougher outlines.
   for (size_t i = 0; i < stems->size(); ++i) {
     const size_t before = kept.size();
+    const bool mixed_part_core = (*stems)[i].mixed_part_core;
     const PartOutcome p = ResolvePart(o, std::move((*stems)[i]), refine, &kept);
-    PlaceFittedOccluders(std::span(kept).subspan(before), i, &occluders);
+    PlaceFittedOccluders(std::span(kept).subspan(before), i, mixed_part_core, &occluders);
     total.fitted += p.fitted;
     total.from_cores += p.from_cores;
     total.dropped += p.dropped;

@@ -62,17 +62,23 @@ struct PartOutcome {
 };
 // What one part of the cloud becomes, appended to `kept`: the stem its silhouettes fit, the stems
 // its cores make, the stem of its cloud, or nothing. `refine` judges one stem by its silhouettes.
+// A core of a part no stem as a whole (Stem::mixed_part_core) becomes a stem only where its
+// silhouettes are clean, as any part's core.
 PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
                         const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept);
 
+// A circle of no radius on the plot's axis: behind every camera on the arm, it hides nothing.
+inline const Eigen::Vector3d kNoOccluder = Eigen::Vector3d::Zero();
+
 // The stems that one part of the cloud became (`fitted`) replace that part's circle (x, y,
 // radius) among the occluders that farther stems' edge searches stop at; a part that became
-// nothing keeps its cloud circle.
-void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part,
+// nothing keeps its cloud circle, unless it was a core of a part no stem as a whole
+// (Stem::mixed_part_core: a shrub's or a sapling's, as often as not), which then hides nothing.
+void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part, bool mixed_part_core,
                           std::vector<Eigen::Vector3d>* occluders);
 
-// The larger cloud's stems alone (`candidates`, nearest first), each tried where no stem of
-// `kept` stands within MeasureOptions::larger_cloud_part_gap_m of it: listed (flagged
+// The larger cloud's stems alone (`candidates`, nearest first), each tried where its centre
+// lies MeasureOptions::larger_cloud_part_gap_m clear of every stem of `kept`: listed (flagged
 // silhouette_only, and added to the occluders) when `refine` uses its fit and finds it sharp,
 // whole, or straight behind a listed stem with its sides seen apart (RefinedStem).
 // Returns how many were listed.

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "stemmap/stems/silhouette.h"
 #include "stemmap/stems/test_scene.h"
 
 namespace stemmap::stems {
@@ -43,15 +44,23 @@ TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
   fitted[0].dbh_tangent_m = 0.4;  // the silhouettes'
   fitted[1].centre_xy = {5.4, -0.3};
   fitted[1].dbh_m = 0.2;
-  PlaceFittedOccluders(fitted, 1, &occluders);
+  PlaceFittedOccluders(fitted, 1, false, &occluders);
   ASSERT_EQ(occluders.size(), 4u);
   EXPECT_EQ(occluders[0], Eigen::Vector3d(1, 0, 0.1));
   EXPECT_EQ(occluders[1], Eigen::Vector3d(5.1, 0.2, 0.2));
   EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
   EXPECT_EQ(occluders[3], Eigen::Vector3d(5.4, -0.3, 0.1));
   // A part that became nothing keeps its cloud circle.
-  PlaceFittedOccluders({}, 2, &occluders);
+  PlaceFittedOccluders({}, 2, false, &occluders);
   EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
+  // A core of a part no stem as a whole that became nothing hides nothing.
+  PlaceFittedOccluders({}, 0, true, &occluders);
+  EXPECT_EQ(occluders[0], kNoOccluder);
+  EXPECT_FALSE(BesideNearerStem({kNoOccluder}, {5.0, 0.0}, 0.2, 0.0));
+  // One that became a stem stands as it.
+  occluders[0] = {1, 0, 0.1};
+  PlaceFittedOccluders(std::span(fitted).first(1), 0, true, &occluders);
+  EXPECT_EQ(occluders[0], Eigen::Vector3d(5.1, 0.2, 0.2));
 }
 
 // Stereo smear: a 14.4-cm stem at 5.7 m, and a part 0.7 m behind it on nearly its bearing.
@@ -283,6 +292,32 @@ TEST(AddLargerCloudOnlyStems, ListsSharpFitsWhereNoStemStands) {
   EXPECT_DOUBLE_EQ(occluders[1].z(), 0.0535);
 }
 
+// A stem's larger cloud smeared along the line of sight is far wider than the stem: its circle
+// may reach a listed stem beside it while its centre stands clear. It is tried; one whose centre
+// lies on a listed stem is not. Swept over how far the smear reaches past the listed stem.
+TEST(AddLargerCloudOnlyStems, TriesASmearedStemWhoseCircleReachesAListedOne) {
+  const MeasureOptions o;
+  for (double smeared_dbh_m : {0.3, 0.6, 0.9}) {
+    std::vector<Stem> kept = {Fitted(10.06, 1.43, 0.126, 0.0)};
+    std::vector<Eigen::Vector3d> occluders = {{10.06, 1.43, 0.063}};
+    const std::vector<Stem> candidates = {Fitted(9.73, 1.37, smeared_dbh_m, 0.0),
+                                          Fitted(10.10, 1.45, smeared_dbh_m, 0.0)};
+    std::vector<double> tried_x;
+    const int added = AddLargerCloudOnlyStems(
+        o, candidates,
+        [&](Stem s) {
+          tried_x.push_back(s.centre_xy.x());
+          s.centre_xy = {9.06, 1.11};  // its silhouettes fit the stem in front of the smear
+          s.dbh_m = 0.246;
+          return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, true};
+        },
+        &kept, &occluders);
+    EXPECT_EQ(added, 1) << smeared_dbh_m;
+    ASSERT_EQ(tried_x.size(), 1u) << smeared_dbh_m;
+    EXPECT_DOUBLE_EQ(tried_x[0], 9.73);
+  }
+}
+
 TEST(BarkConfirmsCloud, TwoSidedSilhouettesAndBarkOnTheCloudsCircle) {
   // A 16.4-cm stem in front of a 35.8-cm one 2 m behind it: the fit settled on the far stem,
   // where the bark did not line up; on the cloud's circle it does, 6 cm nearer.
@@ -479,6 +514,27 @@ TEST(ResolvePart, AWholeCoreReplacesAPartKeptOnItsSmearedWidth) {
   }
 }
 
+// A core of a part no stem as a whole (a shrub's, a sapling crown's, or a stem's) stands on clean
+// silhouettes only, as a part's core does: a fit the verdict uses is not enough.
+TEST(ResolvePart, ACoreOfAPartNoStemAsAWholeNeedsCleanSilhouettes) {
+  for (const bool clean : {false, true}) {
+    for (const bool mixed : {false, true}) {
+      Stem part = Fitted(0.12, -8.89, 0.106, 0.0);
+      part.weak_support = true;
+      part.mixed_part_core = mixed;
+      auto refine = [&](Stem s) {
+        s.dbh_m = 0.135;
+        return RefinedStem{SilhouetteVerdict::kUse, std::move(s), clean};
+      };
+      std::vector<Stem> kept;
+      const PartOutcome out = ResolvePart({}, part, refine, &kept);
+      const bool stands = clean || !mixed;
+      EXPECT_EQ(kept.size(), stands ? 1u : 0u) << "clean " << clean << ", mixed " << mixed;
+      EXPECT_EQ(out.dropped, stands ? 0 : 1);
+    }
+  }
+}
+
 TEST(ResolvePart, AFitNearThePartsWidthKeepsThePartWithoutTryingItsCores) {
   InLine c;
   c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
@@ -551,6 +607,33 @@ TEST(JudgeSilhouetteFit, NarrowerSilhouettesOnBothSidesInMostViewsOutrankTheClou
   c.fit.tried_views = 8;  // both sides in only three of eight views: not enough to overrule it
   c.fit.two_sided_views = 3;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
+}
+
+// A part on weak support (a core of a part too wide for one stem, a thinly seen far stem) needs
+// its silhouettes to confirm it: both sides in three views on one circle to about a pixel, or,
+// where its bark lines up on the fit, both sides in half the views to weak_on_bark_max_rms_px (a
+// thick stem's outline scatters more than a pixel). Swept over the scatter and the two-sided
+// share, with and without the bark.
+TEST(JudgeSilhouetteFit, AWeakPartIsConfirmedByAWholeOutlineWhereItsBarkLinesUp) {
+  const MeasureOptions o;
+  for (double rms_px : {0.5, 1.5, 1.9, 2.5}) {
+    for (int two_sided : {2, 8, 12}) {
+      for (bool bark : {false, true}) {
+        Case c;
+        c.stem.weak_support = true;
+        c.fit.tried_views = c.fit.views = 20;
+        c.fit.two_sided_views = two_sided;
+        c.fit.rms_m = rms_px * c.px_m;
+        const bool tight = two_sided >= 3 && rms_px < 1.2;
+        const bool whole_on_bark =
+            bark && 2 * two_sided >= 20 && rms_px < o.weak_on_bark_max_rms_px;
+        const SilhouetteVerdict want =
+            tight || whole_on_bark ? SilhouetteVerdict::kUse : SilhouetteVerdict::kDrop;
+        EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, bark), want)
+            << rms_px << " px, two-sided in " << two_sided << " of 20, bark " << bark;
+      }
+    }
+  }
 }
 
 // A sapling's leaves widen its cloud part, and hide its silhouettes in many views: where the

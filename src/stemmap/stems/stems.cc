@@ -63,6 +63,9 @@ void StemOptions::Check() const {
         "a third of the band holds a surface with at least 2 points (lean_slice_min_points) and "
         "a share in [0, 1] of the densest third's (lean_slice_min_share)");
   }
+  if (!(mixed_part_lone_core_max_share >= 0 && mixed_part_lone_core_max_share <= 1)) {
+    throw InputError("mixed_part_lone_core_max_share must be in [0, 1]");
+  }
   if (!(weak_support_share >= 0 && weak_support_share <= 1)) {
     throw InputError("weak_support_share must be in [0, 1]");
   }
@@ -78,7 +81,8 @@ nlohmann::json StemsResult::Summary() const {
           {"rejected_vertical", rejected_vertical},
           {"vetoed_free_space", vetoed_free_space},
           {"larger_cloud_parts", larger_cloud_parts},
-          {"larger_cloud_only", larger_cloud_only}};
+          {"larger_cloud_only", larger_cloud_only},
+          {"mixed_part_cores", mixed_part_cores}};
 }
 
 int AttachLargerCloudParts(std::vector<Stem> more, double gap_m, std::vector<Stem>* found) {
@@ -366,13 +370,21 @@ Eigen::Vector2d CentreOfCircle(const std::vector<Eigen::Vector2d>& pts, double r
   return c0;
 }
 
-// One part of the band as a stem: centre, widths, lean and support; nullopt (counted in `tally`)
-// when it is no stem. A `smeared` part is measured across the line of sight whatever its spread
-// along it (a core of a smeared part: its depth is as noisy as the whole's). A part the
-// free-space veto rejects goes to `vetoed` where that is given.
+// Why a part of the band is no stem.
+enum class Rejection : uint8_t { kNone, kWidth, kLean, kSurface, kFreeSpace };
+
+// One part of the band as a stem: centre, widths, lean and support; nullopt (counted in `tally`,
+// the reason in `why` where given) when it is no stem. A `smeared` part is measured across the
+// line of sight whatever its spread along it (a core of a smeared part: its depth is as noisy as
+// the whole's). A part the free-space veto rejects goes to `vetoed` where that is given.
 std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::vector<int>& m,
                                 const GroundGrid& ground, double depth_focal_px, bool smeared,
-                                StemsResult* tally, std::vector<Stem>* vetoed = nullptr) {
+                                StemsResult* tally, std::vector<Stem>* vetoed = nullptr,
+                                Rejection* why = nullptr) {
+  auto reject = [&](Rejection r) {
+    if (why) *why = r;
+    return std::nullopt;
+  };
   std::vector<Eigen::Vector2d> all_xy;
   for (int i : m) all_xy.push_back(b.points[i]->world.head<2>().cast<double>());
   Eigen::Vector2d c0;
@@ -392,7 +404,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
         "stems: part of {} points at ({:.2f}, {:.2f}) rejected: diameter {:.2f} m (ground "
         "{:.2f})",
         m.size(), c0.x(), c0.y(), 2 * r0, ground.Height(c0.x(), c0.y()));
-    return std::nullopt;
+    return reject(Rejection::kWidth);
   }
   // Verticality: centroids of three sub-slices of the band on one near-vertical line. Only
   // points near the stem's circle count: clutter joined to the part at one height (smeared
@@ -447,7 +459,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
                                        cent.front().x(), cent.front().y(), cent.front().z(),
                                        cent.back().x(), cent.back().y(), cent.back().z())
                          : "");
-    return std::nullopt;
+    return reject(Rejection::kLean);
   }
   // Breast-height slice.
   std::vector<Eigen::Vector2d> slice;
@@ -462,7 +474,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
       views.insert(b.points[i]->keyframe);
     }
   }
-  if (slice.size() < 8) return std::nullopt;
+  if (slice.size() < 8) return reject(Rejection::kSurface);
   const double support_m2 =
       depth_focal_px > 0 ? slice.size() * c0.squaredNorm() / (depth_focal_px * depth_focal_px)
                          : o.min_slice_support_m2;
@@ -472,7 +484,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
       ++tally->rejected_size;
       spdlog::debug("stems: part at ({:.2f}, {:.2f}) rejected: {} slice points", c0.x(), c0.y(),
                     slice.size());
-      return std::nullopt;
+      return reject(Rejection::kSurface);
     }
     s.weak_support = true;
   }
@@ -518,24 +530,29 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
       s.weak_support = true;
       vetoed->push_back(std::move(s));
     }
-    return std::nullopt;
+    return reject(Rejection::kFreeSpace);
   }
   return s;
 }
 
 // A part split again on denser cells: stems one behind another that depth noise joined, or a
 // stem and a sapling beside it, stand out as dense cores. A core still smeared is split again on
-// denser cells still. Empty when no density splits the part in two or more.
+// denser cells still. Empty when no density splits the part in two or more, unless one core
+// alone holds at most lone_core_max_share of its points (what it shed leaned or widened it).
 std::vector<std::vector<int>> SplitOnDenserCells(const StemOptions& o,
                                                  const std::vector<const dense::CloudPoint*>& band,
-                                                 const std::vector<int>& part, int min_count) {
+                                                 const std::vector<int>& part, int min_count,
+                                                 double lone_core_max_share = 0.0) {
   for (; min_count <= 32 * o.min_cell_points; min_count *= 2) {
     std::vector<std::vector<int>> subs;
     for (std::vector<int>& sub : SplitIntoParts(o, band, part, min_count)) {
       if (static_cast<int>(sub.size()) >= o.min_points) subs.push_back(std::move(sub));
     }
     if (subs.empty()) break;
-    if (subs.size() < 2) continue;
+    if (subs.size() < 2) {
+      if (subs[0].size() <= lone_core_max_share * part.size()) return subs;
+      continue;
+    }
     std::vector<std::vector<int>> cores;
     for (std::vector<int>& sub : subs) {
       std::vector<Eigen::Vector2d> xy;
@@ -556,6 +573,35 @@ std::vector<std::vector<int>> SplitOnDenserCells(const StemOptions& o,
     return cores;
   }
   return {};
+}
+
+// A part no stem as a whole, too wide for one or leaning far (a stem with a shrub beside it at
+// one height, stems in a shrub, a clump of stems that understory joins): each of its denser
+// cores that measures as a stem is one, on weak support, so that only silhouettes confirm it (a
+// shrub's dense core has none). A core no stem for the same reasons is split again on denser
+// cells.
+void AddCoresOfAMixedPart(const StemOptions& o, const Band& b, const std::vector<int>& m,
+                          int min_count, const GroundGrid& ground, double depth_focal_px,
+                          StemsResult* result) {
+  StemsResult not_counted;
+  for (const std::vector<int>& sub :
+       SplitOnDenserCells(o, b.points, m, min_count, o.mixed_part_lone_core_max_share)) {
+    Rejection why = Rejection::kNone;
+    std::optional<Stem> a =
+        MeasurePart(o, b, sub, ground, depth_focal_px, false, &not_counted, nullptr, &why);
+    if (!a) {
+      if (why == Rejection::kWidth || why == Rejection::kLean) {
+        AddCoresOfAMixedPart(o, b, sub, 2 * min_count, ground, depth_focal_px, result);
+      }
+      continue;
+    }
+    a->weak_support = true;
+    a->mixed_part_core = true;
+    ++result->mixed_part_cores;
+    spdlog::debug("stems: core ({:.2f}, {:.2f}) {:.3f} m of a part no stem as a whole",
+                  a->centre_xy.x(), a->centre_xy.y(), a->dbh_m);
+    result->stems.push_back(std::move(*a));
+  }
 }
 
 }  // namespace
@@ -604,8 +650,12 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
   result.components = static_cast<int>(parts.size());
   const Band b{band, band_h};
   for (const std::vector<int>& m : parts) {
+    Rejection why = Rejection::kNone;
     std::optional<Stem> s =
-        MeasurePart(o, b, m, ground, depth_focal_px, false, &result, &result.vetoed);
+        MeasurePart(o, b, m, ground, depth_focal_px, false, &result, &result.vetoed, &why);
+    if (o.split_mixed_parts_into_cores && (why == Rejection::kWidth || why == Rejection::kLean)) {
+      AddCoresOfAMixedPart(o, b, m, 2 * o.min_cell_points, ground, depth_focal_px, &result);
+    }
     if (!s) continue;
     if (o.split_parts_into_cores) {
       // Every core that is a stem on its own, even one alone: its siblings may be no stem (a

@@ -33,6 +33,13 @@ struct StemOptions {
   // silhouette fits the whole.
   bool split_parts_into_cores = true;
   double split_range_gap_m = 0.6;
+  // A part no stem as a whole, too wide for one or leaning further than max_lean_deg (a stem
+  // with a shrub beside it at one height, stems in a shrub, stems that understory joins), yields
+  // its denser cores as stems on weak support: silhouettes must confirm them.
+  bool split_mixed_parts_into_cores = true;
+  // Where no density splits such a part in two, one denser core alone counts when it sheds at
+  // least the rest of this share of the part's points (a shrub at one height).
+  double mixed_part_lone_core_max_share = 0.67;
   int min_points = 25;
   // Breast-height slice points times the area one depth pixel covers at the stem's distance
   // (m², summed over the pairs that see it). Stereo points thin out with the square of the
@@ -74,9 +81,10 @@ struct StemOptions {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     StemOptions, breast_height_m, search_radius_m, band_low_m, band_high_m, grid_m, min_cell_points,
     split_wide_parts, split_by_bearing, max_depth_smear_m, split_gap_m, split_parts_into_cores,
-    split_range_gap_m, min_points, min_slice_support_m2, weak_support_share, min_diameter_m,
-    max_diameter_m, max_lean_deg, confirm_lean_deg, lean_slice_min_points, lean_slice_min_share,
-    lean_circle_max_off_share, slice_half_m, free_space_veto, dbh_method)
+    split_range_gap_m, split_mixed_parts_into_cores, mixed_part_lone_core_max_share, min_points,
+    min_slice_support_m2, weak_support_share, min_diameter_m, max_diameter_m, max_lean_deg,
+    confirm_lean_deg, lean_slice_min_points, lean_slice_min_share, lean_circle_max_off_share,
+    slice_half_m, free_space_veto, dbh_method)
 
 // What a reader of the tree list should know about how a stem was measured (trees.csv `flags`).
 enum class StemFlag : uint8_t {
@@ -142,6 +150,9 @@ struct Stem {
   // a stem only if two-sided silhouettes confirm it. Also set for a part leaning further than
   // confirm_lean_deg.
   bool weak_support = false;
+  // A denser core of a part no stem as a whole (StemOptions::split_mixed_parts_into_cores):
+  // where it comes to nothing, the larger cloud's stems there are tried on their own.
+  bool mixed_part_core = false;
   StemFlags flags;
   // The stems its denser cores make, when it splits into two or more on them (one alone when
   // the others are no stems).
@@ -158,6 +169,7 @@ struct StemsResult {
   int components = 0, rejected_size = 0, rejected_vertical = 0, vetoed_free_space = 0;
   int larger_cloud_parts = 0;  // AttachLargerCloudParts
   int larger_cloud_only = 0;   // stems of the larger cloud alone, tried on their silhouettes
+  int mixed_part_cores = 0;    // cores of parts no stem as a whole (split_mixed_parts_into_cores)
   nlohmann::json Summary() const;
 };
 

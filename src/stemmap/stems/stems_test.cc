@@ -43,6 +43,21 @@ StemsResult DetectWithoutBearingSplit(const std::vector<dense::CloudPoint>& clou
   return DetectStems(o, cloud, ground);
 }
 
+// The stems the cloud shows on its own, without those on weak support that wait for silhouettes
+// to confirm them. Each of those must lie in `where`, the clutter of the scene.
+std::vector<Stem> StemsOnTheirPoints(const StemsResult& r,
+                                     const std::function<bool(const Eigen::Vector2d&)>& where) {
+  std::vector<Stem> out;
+  for (const Stem& s : r.stems) {
+    if (!s.weak_support) {
+      out.push_back(s);
+    } else {
+      EXPECT_TRUE(where(s.centre_xy)) << s.centre_xy.transpose();
+    }
+  }
+  return out;
+}
+
 Stem StemAt(double x, double y, double dbh_m) {
   Stem s;
   s.centre_xy = {x, y};
@@ -149,6 +164,11 @@ TEST(StemOptions, CheckRejectsOutOfRangeValues) {
   EXPECT_EQ(CheckMessage(o), "DBH method 'girth' is not tangent, slice or circle");
 }
 
+// The far spread of TwoTrunksAndAGhost.
+bool InTheFarSpread(const Eigen::Vector2d& xy) {
+  return std::abs(xy.x()) < 0.3 && xy.y() > 8.4 && xy.y() < 10.6;
+}
+
 TEST(Stems, DetectsTrunksAndVetoesAGhost) {
   const std::vector<dense::CloudPoint> cloud = TwoTrunksAndAGhost();
   const GroundGrid ground(cloud, 13);
@@ -156,7 +176,9 @@ TEST(Stems, DetectsTrunksAndVetoesAGhost) {
   StemOptions o;
   o.dbh_method = "circle";
   const StemsResult r = DetectStems(o, cloud, ground);
-  ASSERT_EQ(r.stems.size(), 2u);
+  // The thin spread of far points is too wide for a stem; its denser cores wait for silhouettes.
+  const std::vector<Stem> stems = StemsOnTheirPoints(r, InTheFarSpread);
+  ASSERT_EQ(stems.size(), 2u);
   EXPECT_GE(r.vetoed_free_space, 1);
   // The ghost is kept aside, measured, for a later look at its silhouettes.
   const auto ghost = std::ranges::find_if(
@@ -165,9 +187,9 @@ TEST(Stems, DetectsTrunksAndVetoesAGhost) {
   EXPECT_GT(ghost->pass_through, o.free_space_veto);
   EXPECT_TRUE(ghost->weak_support);
   EXPECT_NEAR(ghost->dbh_m, 0.40, 0.02);
-  EXPECT_NEAR((r.stems[0].centre_xy - Eigen::Vector2d(5, 0)).norm(), 0, 0.02);
-  EXPECT_NEAR(r.stems[0].dbh_m, 0.30, 0.01);
-  EXPECT_NEAR(r.stems[1].dbh_m, 0.50, 0.01);
+  EXPECT_NEAR((stems[0].centre_xy - Eigen::Vector2d(5, 0)).norm(), 0, 0.02);
+  EXPECT_NEAR(stems[0].dbh_m, 0.30, 0.01);
+  EXPECT_NEAR(stems[1].dbh_m, 0.50, 0.01);
 }
 
 // With a learned trunk mask, points it calls "not a trunk" build no stem.
@@ -181,8 +203,9 @@ TEST(Stems, TrunkMaskKeepsOtherSurfacesOut) {
   StemOptions o;
   o.dbh_method = "circle";
   const StemsResult r = DetectStems(o, cloud, ground);
-  ASSERT_EQ(r.stems.size(), 1u);
-  EXPECT_NEAR((r.stems[0].centre_xy - Eigen::Vector2d(0, -6)).norm(), 0, 0.02);
+  const std::vector<Stem> stems = StemsOnTheirPoints(r, InTheFarSpread);
+  ASSERT_EQ(stems.size(), 1u);
+  EXPECT_NEAR((stems[0].centre_xy - Eigen::Vector2d(0, -6)).norm(), 0, 0.02);
   EXPECT_GE(r.vetoed_free_space, 1);  // the ghost's points are "trunk", its rays still veto it
 }
 
@@ -467,5 +490,98 @@ TEST(Stems, PartOfATrunkAndASaplingKeepsTheTrunksOneCore) {
   EXPECT_NEAR(whole.alternatives[0].dbh_m, 2 * r, 0.03);
 }
 
+// Trunks standing in a thicket longer than any stem is wide, one behind another (understory
+// that fills the gaps between them): the band makes one part of it all, too wide to be a stem,
+// with no bearing gap to split it. Its denser cores are the trunks, each a stem on weak support
+// (silhouettes must confirm it); the thicket alone yields no stem that is not weak.
+TEST(Stems, TrunksInAThicketTooWideForAStemAreItsCores) {
+  for (const double half_length_m : {1.2, 1.4, 1.6}) {
+    SCOPED_TRACE(half_length_m);
+    Rng rng(11);
+    std::vector<dense::CloudPoint> cloud = FlatGround(&rng);
+    auto add = [&](const Eigen::Vector3d& p) { AddSeenFromArm(p, &rng, &cloud); };
+    const std::vector<std::pair<Eigen::Vector2d, double>> trunks = {{{6.0, 0.0}, 0.12},
+                                                                    {{7.1, 0.3}, 0.07}};
+    // The thicket: an ellipse along the line of sight, nearly as wide across it, its leaves seen
+    // at every depth through its gaps, from 0.3 to 1.8 m.
+    const Eigen::Vector2d centre(6.5, 0.15);
+    const int twigs = static_cast<int>(8000 * half_length_m * half_length_m);
+    for (int i = 0; i < twigs; ++i) {
+      const double a = rng.Uniform(0, 2 * M_PI), d = std::sqrt(rng.Uniform(0, 1));
+      add(Eigen::Vector3d(centre.x() + half_length_m * d * std::cos(a),
+                          centre.y() + 0.8 * half_length_m * d * std::sin(a),
+                          rng.Uniform(0.3, 1.8)));
+    }
+    const GroundGrid ground_of_thicket(cloud, 13);
+    for (const Stem& s : DetectStems(StemOptions(), cloud, ground_of_thicket).stems) {
+      EXPECT_TRUE(s.weak_support) << s.centre_xy.transpose();
+    }
+    for (const auto& [c, r] : trunks) {
+      for (int i = 0; i < 6000; ++i) {  // the face toward the centre, depth noise of 5 mm
+        const double a = std::atan2(-c.y(), -c.x()) + rng.Uniform(-1.3, 1.3);
+        const double rr = r + rng.Normal(0, 0.005);
+        add(Eigen::Vector3d(c.x() + rr * std::cos(a), c.y() + rr * std::sin(a), rng.Uniform(0, 3)));
+      }
+    }
+    const GroundGrid ground(cloud, 13);
+    StemOptions o;
+    const StemsResult res = DetectStems(o, cloud, ground);
+    for (const auto& [c, r] : trunks) {
+      const auto found = std::ranges::find_if(res.stems, [&](const Stem& s) {
+        return (s.centre_xy - c).norm() < 0.05 && std::abs(s.dbh_m - 2 * r) < 0.03;
+      });
+      ASSERT_NE(found, res.stems.end()) << c.transpose();
+      EXPECT_TRUE(found->weak_support);
+    }
+    EXPECT_GE(res.mixed_part_cores, 2);
+    // Without the cores, the part too wide is all the band has there.
+    o.split_mixed_parts_into_cores = false;
+    const StemsResult without = DetectStems(o, cloud, ground);
+    EXPECT_EQ(without.mixed_part_cores, 0);
+    EXPECT_TRUE(std::ranges::none_of(without.stems, [&](const Stem& s) {
+      return (s.centre_xy - trunks[0].first).norm() < 0.05;
+    }));
+  }
+}
+
+// A trunk with a dense shrub against it at the bottom of the band: the part's lowest third is
+// drawn toward the shrub, the part leans 20° (further than max_lean_deg) and is no stem. Its
+// denser core is the trunk, kept on weak support. Swept over the shrub's side and density.
+TEST(Stems, ATrunkWithAShrubAgainstItAtOneHeightIsItsCore) {
+  for (const double side : {-1.0, 1.0}) {
+    for (const int twigs : {4000, 6000}) {
+      SCOPED_TRACE(::testing::Message() << "side " << side << ", " << twigs << " twigs");
+      Rng rng(12);
+      std::vector<dense::CloudPoint> cloud = FlatGround(&rng);
+      auto add = [&](const Eigen::Vector3d& p) { AddSeenFromArm(p, &rng, &cloud); };
+      const Eigen::Vector2d trunk(5.0, 0.0), shrub(4.95, side * 0.3);
+      const double r = 0.09;
+      for (int i = 0; i < 6000; ++i) {  // the face toward the centre, depth noise of 5 mm
+        const double a = M_PI + rng.Uniform(-1.3, 1.3), rr = r + rng.Normal(0, 0.005);
+        add(Eigen::Vector3d(trunk.x() + rr * std::cos(a), trunk.y() + rr * std::sin(a),
+                            rng.Uniform(0, 3)));
+      }
+      for (int i = 0; i < twigs; ++i) {  // its leaves from 0.9 to 1.3 m
+        const double a = rng.Uniform(0, 2 * M_PI), d = 0.22 * std::sqrt(rng.Uniform(0, 1));
+        add(Eigen::Vector3d(shrub.x() + d * std::cos(a), shrub.y() + d * std::sin(a),
+                            rng.Uniform(0.9, 1.3)));
+      }
+      const GroundGrid ground(cloud, 13);
+      StemOptions o;
+      const StemsResult res = DetectStems(o, cloud, ground);
+      EXPECT_GE(res.rejected_vertical, 1);
+      const auto found = std::ranges::find_if(res.stems, [&](const Stem& s) {
+        return (s.centre_xy - trunk).norm() < 0.04 && std::abs(s.dbh_m - 2 * r) < 0.03;
+      });
+      ASSERT_NE(found, res.stems.end());
+      EXPECT_TRUE(found->weak_support);
+      EXPECT_TRUE(found->mixed_part_core);
+      o.split_mixed_parts_into_cores = false;
+      EXPECT_TRUE(std::ranges::none_of(DetectStems(o, cloud, ground).stems, [&](const Stem& s) {
+        return (s.centre_xy - trunk).norm() < 0.1;
+      }));
+    }
+  }
+}
 }  // namespace
 }  // namespace stemmap::stems
