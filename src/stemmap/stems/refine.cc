@@ -300,9 +300,13 @@ BarkDepth CheckFitOnBark(const BarkDepthOptions& o, const TangentOptions& t,
 }
 
 bool OutlineOutweighsPlainBark(const MeasureOptions& o, const TangentFit& fit,
-                               const BarkDepth& bark, double cloud_radius_m, double px_m) {
-  return fit.ok && !bark.ok && !bark.at_search_end && bark.pairs >= o.bark_depth.min_pairs &&
-         bark.peak_ncc < o.bark_depth.min_surface_ncc &&
+                               const BarkDepth& bark, const Eigen::Vector2d& cloud_centre,
+                               double cloud_radius_m, double px_m) {
+  const Eigen::Vector2d across = Eigen::Vector2d(-cloud_centre.y(), cloud_centre.x()).normalized();
+  const bool where_the_cloud_is =
+      std::abs((fit.centre - cloud_centre).dot(across)) <= cloud_radius_m;
+  return fit.ok && where_the_cloud_is && !bark.ok && !bark.at_search_end &&
+         bark.pairs >= o.bark_depth.min_pairs && bark.peak_ncc < o.bark_depth.min_surface_ncc &&
          fit.two_sided_views >= o.outline_over_bark_two_sided_share * fit.tried_views &&
          fit.rms_m < o.outline_over_bark_rms_px * px_m &&
          std::abs(fit.radius_m - cloud_radius_m) <=
@@ -373,7 +377,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const BarkDepth bark =
         CheckFitOnBark(bark_options, topt, views, breast_z, &f, asked ? &last_bark : nullptr);
     if (!f.ok && outline_may_outweigh_bark &&
-        OutlineOutweighsPlainBark(o, outline, bark, r0, px_m)) {
+        OutlineOutweighsPlainBark(o, outline, bark, s.centre_xy, r0, px_m)) {
       spdlog::debug(
           "stems: ({:.2f}, {:.2f}) r {:.3f}: its bark correlates nowhere (ncc {:.2f}), its outline "
           "stands (two-sided in {} of {} views)",

@@ -108,9 +108,13 @@ BarkDepth CheckFitOnBark(const BarkDepthOptions& o, const TangentOptions& t,
 
 // Whether a fit the bark check rejected (`bark`: its bark's comparison) stands on its outline
 // (MeasureOptions::outline_over_bark_*): bark that lines up nowhere, not best at the end of the
-// search, inside a whole, tight outline as wide as the cloud's points (`cloud_radius_m`).
+// search, inside a whole, tight outline as wide as the cloud's points (`cloud_radius_m`) and
+// where they are: its centre off the cloud's (`cloud_centre`) by at most that radius across the
+// line of sight (a circle around one side of the stem and what stands beside it has an outline
+// too, and no bark).
 bool OutlineOutweighsPlainBark(const MeasureOptions& o, const TangentFit& fit,
-                               const BarkDepth& bark, double cloud_radius_m, double px_m);
+                               const BarkDepth& bark, const Eigen::Vector2d& cloud_centre,
+                               double cloud_radius_m, double px_m);
 
 // Whether a fit has the bark to show for its width: true unless it is over
 // MeasureOptions::wide_fit_scale times `cloud_radius_m` and its bark lines up to under

@@ -177,7 +177,7 @@ TEST(OutlineOutweighsPlainBark, OnlyAWholeTightOutlineAsWideAsTheCloudOutweighsP
             const bool whole = 2 * two_sided >= 27, tight = rms_px < 1.2;
             const bool as_wide = std::abs(width - 1.0) <= 0.2 + 1e-9;
             const bool plain = ncc < o.bark_depth.min_surface_ncc && !at_end;
-            EXPECT_EQ(OutlineOutweighsPlainBark(o, f, bark, cloud_r, px_m),
+            EXPECT_EQ(OutlineOutweighsPlainBark(o, f, bark, f.centre, cloud_r, px_m),
                       whole && tight && as_wide && plain)
                 << two_sided << " two-sided, " << rms_px << " px, width " << width << ", ncc "
                 << ncc << (at_end ? " at the end" : "");
@@ -194,7 +194,35 @@ TEST(OutlineOutweighsPlainBark, OnlyAWholeTightOutlineAsWideAsTheCloudOutweighsP
   f.radius_m = cloud_r;
   BarkDepth bark;
   bark.pairs = o.bark_depth.min_pairs - 1;
-  EXPECT_FALSE(OutlineOutweighsPlainBark(o, f, bark, cloud_r, px_m));
+  EXPECT_FALSE(OutlineOutweighsPlainBark(o, f, bark, f.centre, cloud_r, px_m));
+}
+
+// A circle around one side of a stem and what stands beside it (a nearer sapling hid the stem's
+// other side) can show a whole, tight outline as wide as the stem, and no bark: it stands only
+// where the cloud saw the stem, its centre off the cloud's by at most the cloud's radius across
+// the line of sight. Along it, the cloud's depth is too rough to judge by. Swept over the shift.
+TEST(OutlineOutweighsPlainBark, OnlyWhereTheCloudSawTheStem) {
+  const MeasureOptions o;
+  const double px_m = 0.004, cloud_r = 0.26;
+  const Eigen::Vector2d cloud(-0.08, 5.86);
+  const Eigen::Vector2d across(-1.0, 0.0), along = cloud.normalized();
+  for (double shift_m : {0.0, 0.1, 0.2, 0.3, 0.45}) {
+    for (bool sideways : {false, true}) {
+      TangentFit f;
+      f.ok = true;
+      f.tried_views = 24;
+      f.two_sided_views = 13;
+      f.rms_m = 1.0 * px_m;
+      f.radius_m = 0.21;
+      f.centre = cloud + shift_m * (sideways ? across : along);
+      BarkDepth bark;
+      bark.pairs = 33;
+      bark.peak_ncc = 0.07;
+      EXPECT_EQ(OutlineOutweighsPlainBark(o, f, bark, cloud, cloud_r, px_m),
+                !sideways || shift_m <= cloud_r)
+          << shift_m << " m " << (sideways ? "across" : "along") << " the line of sight";
+    }
+  }
 }
 
 TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
