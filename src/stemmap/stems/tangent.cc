@@ -647,8 +647,10 @@ std::optional<TangentFit> FitTheBarkLinesUpOn(
                         f.rms_m < o.on_bark_max_rms_px * px_m &&
                         f.radius_m > o.narrow_min_share * radius0 &&
                         f.radius_m < o.WidestFitScale() * radius0;
-    const bool same = (f.centre - chosen.centre).norm() < 1e-9 && f.radius_m == chosen.radius_m;
-    if (shaped && !same) candidates.push_back(&f);
+    // A circle around two things is wider than either: only a narrower fit can be the stem's
+    // own (a wider one whose bark lines up may only fit the bark's curve better, as on an
+    // elliptical stem, where the chosen circle's bark falls just short).
+    if (shaped && f.radius_m < chosen.radius_m) candidates.push_back(&f);
   }
   std::ranges::stable_sort(candidates, [](const TangentFit* a, const TangentFit* b) {
     return a->two_sided_views > b->two_sided_views;

@@ -218,10 +218,10 @@ bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const Tang
 // distance tried).
 enum class BarkVerdict { kLinesUp, kLinesUpNowhere, kSaysNothing };
 
-// Among the starts' fits `tried`, the one with both sides in the most views (in most of its own,
-// within on_bark_max_rms_px of one circle; px_m: metres a pixel spans at the stem, and no
-// narrower than narrow_min_share or wider than the widest start of radius0) whose bark lines up,
-// other than `chosen`. None when no such fit is accepted.
+// Among the starts' fits `tried` narrower than `chosen`, the one with both sides in the most
+// views (in most of its own, within on_bark_max_rms_px of one circle; px_m: metres a pixel spans
+// at the stem, and no narrower than narrow_min_share or wider than the widest start of radius0)
+// whose bark lines up. None when no such fit is accepted.
 std::optional<TangentFit> FitTheBarkLinesUpOn(
     const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
     double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&)>& bark);

@@ -457,6 +457,37 @@ TEST(Tangent, FitsAThinStemTheCloudPlacedAWidthToOneSide) {
 // side and half again as wide. From there the silhouettes settle on a circle around the thin
 // stem's side and the thick one's, both sides in most views; a start moved across the line of
 // sight finds the thin stem's own. The bark lines up on the thin stem's circle only, and decides.
+// Where the bark lines up nowhere on the chosen fit, a start's fit it lines up on replaces it
+// only when narrower: a circle around two things (a thin stem and a thicker one behind it) is
+// wider than either, while a wider circle's bark may only follow an elliptical stem's curve
+// better where the chosen circle's falls just short. Swept over the wider fit's width.
+TEST(FitTheBarkLinesUpOn, OnlyANarrowerFitReplacesTheChosenOne) {
+  const TangentOptions o;
+  const double px_m = 0.005, radius0 = 0.23;
+  auto fit = [](double r, int two_sided) {
+    TangentFit f;
+    f.ok = true;
+    f.centre = {-0.36, -7.40};
+    f.radius_m = r;
+    f.rms_m = 0.004;
+    f.tried_views = 21;
+    f.two_sided_views = two_sided;
+    return f;
+  };
+  const TangentFit chosen = fit(0.200, 14);
+  const auto lines_up = [](const TangentFit&) { return BarkVerdict::kLinesUp; };
+  for (double wider : {0.21, 0.252, 0.3}) {
+    // The wider fit shows both sides in more views than the narrower one: still not taken.
+    const std::vector<TangentFit> tried = {chosen, fit(wider, 16), fit(0.15, 12)};
+    const std::optional<TangentFit> on_bark =
+        FitTheBarkLinesUpOn(o, tried, chosen, radius0, px_m, lines_up);
+    ASSERT_TRUE(on_bark.has_value()) << wider;
+    EXPECT_DOUBLE_EQ(on_bark->radius_m, 0.15) << wider;
+    const std::vector<TangentFit> only_wider = {chosen, fit(wider, 16)};
+    EXPECT_FALSE(FitTheBarkLinesUpOn(o, only_wider, chosen, radius0, px_m, lines_up)) << wider;
+  }
+}
+
 TEST(Tangent, AThinStemInFrontOfAThickerOneKeepsItsOwnOutlineWhereItsBarkLinesUp) {
   const PinholeCamera camera = PinholeCamera::FromHfov(960, 540, 67.0);
   const Eigen::Vector3d thin(7.3, 0.0, 0.063);
