@@ -96,7 +96,7 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
       // points of a stem seen past a nearer one for a short turn often smear into its free space.
       std::vector<Stem> candidates = std::move(more.vetoed);
       candidates.insert(candidates.end(), more.stems.begin(), more.stems.end());
-      // A core of a part too wide for one stem may be a shrub's: it hides nothing.
+      // A core of a part no stem as a whole may be a shrub's: it hides nothing.
       std::vector<Stem> parts;
       std::ranges::copy_if(sr.stems, std::back_inserter(parts),
                            [](const Stem& s) { return !s.mixed_part_core; });
