@@ -46,6 +46,9 @@ TEST(MeasureOptions, TheLargerCloudsSettingsAreChecked) {
   EXPECT_EQ(CheckMessage(o),
             "the width over the cloud's that needs the bark to line up must be at least 1");
   o = MeasureOptions();
+  o.weak_on_bark_max_rms_px = -1;
+  EXPECT_EQ(CheckMessage(o), "the rms of a weak part's outline on its bark must not be negative");
+  o = MeasureOptions();
   o.wide_fit_min_bark_ncc = 1.5;
   EXPECT_EQ(CheckMessage(o), "the bark correlation a wide fit needs must lie in [-1, 1]");
   o = MeasureOptions();

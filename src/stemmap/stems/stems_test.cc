@@ -160,6 +160,9 @@ TEST(StemOptions, CheckRejectsOutOfRangeValues) {
   o.free_space_veto = 1.2;
   EXPECT_EQ(CheckMessage(o), "free_space_veto must be in (0, 1]");
   o = StemOptions();
+  o.mixed_part_lone_core_max_share = 1.5;
+  EXPECT_EQ(CheckMessage(o), "mixed_part_lone_core_max_share must be in [0, 1]");
+  o = StemOptions();
   o.dbh_method = "girth";
   EXPECT_EQ(CheckMessage(o), "DBH method 'girth' is not tangent, slice or circle");
 }
