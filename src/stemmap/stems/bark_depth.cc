@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "stemmap/core/error.h"
 #include "stemmap/stems/silhouette.h"
@@ -36,16 +37,30 @@ void BarkDepthOptions::Check() const {
   if (!(max_hidden_view_share >= 0 && max_hidden_view_share < 1)) {
     throw InputError("the share of views leaves may hide from the bark must lie in [0, 1)");
   }
+  if (!(rim_gap_share >= 0 && rim_outer_share > rim_gap_share && rim_outer_share <= 1)) {
+    throw InputError(
+        "the bark's rim must reach from a share of the width at least 0 up to one greater, at "
+        "most 1");
+  }
 }
 
 namespace {
 
-// What keyframe k shows of a stem's bark at breast height: the columns compared (the middle
-// inner_share of the stem's width, or the widest part of it that nearer stems leave free, if at
-// least three quarters of it) and the nearer stems' columns, where nothing of the stem shows.
+// The columns of a stem's width compared, as shares of its apparent width about its middle: the
+// middle `outer_share` (plain bark), less the middle `hollow_share` (the rim of a circle beyond a
+// narrower one inside it).
+struct ColumnWindow {
+  double hollow_share = 0.0;
+  double outer_share = 0.6;
+};
+
+// What keyframe k shows of a stem's bark at breast height: the stretches of columns compared and
+// the nearer stems' columns, where nothing of the stem shows. Without a hollow, the widest
+// stretch of the window that nearer stems leave free, if at least three quarters of it; with
+// one, every free stretch of the two sides, if together three quarters of them.
 struct BarkView {
   bool sees = false;
-  double x_lo = 0, x_hi = 0;
+  std::vector<std::array<double, 2>> cols;
   std::vector<std::array<double, 2>> occluder_cols;
   bool Hidden(double x) const {
     return std::ranges::any_of(occluder_cols, [&](const auto& q) { return x > q[0] && x < q[1]; });
@@ -53,7 +68,7 @@ struct BarkView {
 };
 
 BarkView SeesBark(const TangentOptions& t, const TangentViews& v, int k, const Eigen::Vector2d& c,
-                  double r, double breast_z, double inner_share) {
+                  double r, double breast_z, const ColumnWindow& window) {
   BarkView out;
   if (k < 0 || k >= static_cast<int>(v.keyframes->size()) || (*v.gray)[k].empty()) return out;
   const PinholeCamera& cam = *v.camera;
@@ -68,10 +83,16 @@ BarkView SeesBark(const TangentOptions& t, const TangentViews& v, int k, const E
   if (x < 0.08 * cam.width || x > 0.92 * cam.width) return out;
   std::array<double, 2> xs;
   if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, breast_z, &xs)) return out;
-  const double xm = 0.5 * (xs[0] + xs[1]), half = 0.5 * inner_share * (xs[1] - xs[0]);
-  // Free stretches of the middle, clear of each nearer stem by a tenth of the stem's width (the
+  const double xm = 0.5 * (xs[0] + xs[1]), half = 0.5 * window.outer_share * (xs[1] - xs[0]);
+  const double hollow = 0.5 * window.hollow_share * (xs[1] - xs[0]);
+  std::vector<std::array<double, 2>> free;
+  if (hollow > 0) {
+    free = {{xm - half, xm - hollow}, {xm + hollow, xm + half}};
+  } else {
+    free = {{xm - half, xm + half}};
+  }
+  // Free stretches of the window, clear of each nearer stem by a tenth of the stem's width (the
   // nearer stem's fitted outline errs by a few pixels).
-  std::vector<std::array<double, 2>> free = {{xm - half, xm + half}};
   const double guard_px = std::max(3.0, 0.1 * (xs[1] - xs[0]));
   for (const Eigen::Vector3d& q : FrontOccluders(t, v, cc, (c - cc) / d, d, r)) {
     std::array<double, 2> qs;
@@ -85,10 +106,23 @@ BarkView SeesBark(const TangentOptions& t, const TangentViews& v, int k, const E
     }
     free = std::move(rest);
   }
-  for (const auto& [lo, hi] : free) {
-    if (hi - lo > out.x_hi - out.x_lo) out.x_lo = lo, out.x_hi = hi;
+  const double window_px = 2 * (half - hollow);
+  if (hollow > 0) {
+    double width = 0;
+    for (const auto& [lo, hi] : free) {
+      if (hi - lo < 1.0) continue;
+      out.cols.push_back({lo, hi});
+      width += hi - lo;
+    }
+    out.sees = width >= std::max(4.0, 0.75 * window_px);
+    return out;
   }
-  out.sees = out.x_hi - out.x_lo >= std::max(4.0, 1.5 * half);
+  std::array<double, 2> widest = {0, 0};
+  for (const auto& [lo, hi] : free) {
+    if (hi - lo > widest[1] - widest[0]) widest = {lo, hi};
+  }
+  out.cols = {widest};
+  out.sees = widest[1] - widest[0] >= std::max(4.0, 0.75 * window_px);
   return out;
 }
 
@@ -119,11 +153,10 @@ std::vector<char> ViewsHiddenFromTheBark(const BarkDepthOptions& o,
   return hidden;
 }
 
-}  // namespace
-
-BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
-                           const TangentViews& v, const Eigen::Vector2d& c, double r,
-                           double breast_z) {
+// The bark in `window` of the circle's width, as MeasureBarkDepth says.
+BarkDepth MeasureBarkIn(const BarkDepthOptions& o, const TangentOptions& t, const TangentViews& v,
+                        const Eigen::Vector2d& c, double r, double breast_z,
+                        const ColumnWindow& window) {
   BarkDepth out;
   const double dist = c.norm();
   if (!o.enabled || dist < 1e-6 || r <= 0) return out;
@@ -134,7 +167,7 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
   std::vector<std::array<int, 2>> pairs;
   const double baseline_m = std::max(o.baseline_m, o.baseline_share * dist);
   std::vector<BarkView> seen(n_kf);
-  for (int k = 0; k < n_kf; ++k) seen[k] = SeesBark(t, v, k, c, r, breast_z, o.inner_share);
+  for (int k = 0; k < n_kf; ++k) seen[k] = SeesBark(t, v, k, c, r, breast_z, window);
   double cam_dist_sum = 0;
   int cam_dist_n = 0;
   for (int k = 0; k < n_kf; ++k) {
@@ -177,8 +210,7 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
     const Eigen::Matrix3d world_from_k_rotation = world_from_k.rotation.toRotationMatrix();
     const Eigen::Matrix3d j_from_world_rotation = j_from_world.rotation.toRotationMatrix();
     const Eigen::Vector3d ck = world_from_k.translation;
-    // k's bark: the middle of the stem's width left free, rows within the band around breast
-    // height.
+    // k's bark: the window's free columns, rows within the band around breast height.
     const double y_top =
         cam.ImageFromCam(k_from_world *
                          Eigen::Vector3d(c.x(), c.y(), breast_z + o.band_half_height_m))
@@ -187,49 +219,87 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
         cam.ImageFromCam(k_from_world *
                          Eigen::Vector3d(c.x(), c.y(), breast_z - o.band_half_height_m))
             .y();
-    const int x0 = std::max(1, static_cast<int>(std::ceil(seen[k].x_lo)));
-    const int x1 = std::min(img_k.cols - 2, static_cast<int>(std::floor(seen[k].x_hi)));
     const int y0 = std::max(1, static_cast<int>(std::ceil(std::min(y_top, y_bot))));
     const int y1 = std::min(img_k.rows - 2, static_cast<int>(std::floor(std::max(y_top, y_bot))));
-    const double area = std::max(0, x1 - x0 + 1) * std::max(0, y1 - y0 + 1);
+    std::vector<std::array<int, 2>> xr;
+    double width = 0;
+    for (const auto& [lo, hi] : seen[k].cols) {
+      const int x0 = std::max(1, static_cast<int>(std::ceil(lo)));
+      const int x1 = std::min(img_k.cols - 2, static_cast<int>(std::floor(hi)));
+      if (x1 < x0) continue;
+      xr.push_back({x0, x1});
+      width += x1 - x0 + 1;
+    }
+    const double area = width * std::max(0, y1 - y0 + 1);
     if (area < o.min_pixels) continue;
     const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(area / o.max_pixels))));
     std::vector<Eigen::Vector3d> rays;
     std::vector<float> values;
+    std::vector<int> stretch;
     for (int y = y0; y <= y1; y += stride) {
-      for (int x = x0; x <= x1; x += stride) {
-        rays.push_back(world_from_k_rotation * cam.CamRayFromImage({double(x), double(y)}));
-        values.push_back(img_k.at<uchar>(y, x));
+      for (size_t i = 0; i < xr.size(); ++i) {
+        for (int x = xr[i][0]; x <= xr[i][1]; x += stride) {
+          rays.push_back(world_from_k_rotation * cam.CamRayFromImage({double(x), double(y)}));
+          values.push_back(img_k.at<uchar>(y, x));
+          stretch.push_back(static_cast<int>(i));
+        }
       }
     }
+    // The correlation of k's bark with j's pixels where `in_j` (a bark pixel's index) puts it:
+    // each stretch of columns on its own (the two sides of a rim differ in brightness, which
+    // any warp keeping them apart would match), weighed by its pixels.
+    auto correlate = [&](const auto& in_j) {
+      struct Sums {
+        double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+        int n = 0;
+      };
+      std::vector<Sums> sums(xr.size());
+      int n = 0;
+      for (size_t m = 0; m < rays.size(); ++m) {
+        const std::optional<Eigen::Vector3d> p_j = in_j(m);
+        if (!p_j || p_j->z() <= 0.1) continue;
+        const Eigen::Vector2d px = cam.ImageFromCam(*p_j);
+        if (seen[j].Hidden(px.x())) continue;
+        const float vj = BilinearGray(img_j, px.x(), px.y());
+        if (vj < 0) continue;
+        const double va = values[m];
+        Sums& t = sums[stretch[m]];
+        t.sa += va, t.sb += vj, t.saa += va * va, t.sbb += double(vj) * vj, t.sab += va * vj;
+        ++t.n;
+        ++n;
+      }
+      if (n < o.min_pixels || 2 * n < static_cast<int>(rays.size())) return double(NAN);
+      const auto ncc_of = [](const Sums& t) {
+        const double cov = t.sab - t.sa * t.sb / t.n, var_a = t.saa - t.sa * t.sa / t.n,
+                     var_b = t.sbb - t.sb * t.sb / t.n;
+        if (t.n < 2 || var_a <= 1e-6 * t.n || var_b <= 1e-6 * t.n) return double(NAN);
+        return cov / std::sqrt(var_a * var_b);
+      };
+      if (sums.size() == 1) return ncc_of(sums[0]);
+      double weighted = 0;
+      int weight = 0;
+      for (const Sums& t : sums) {
+        const double c = ncc_of(t);
+        if (std::isnan(c)) continue;
+        weighted += t.n * c;
+        weight += t.n;
+      }
+      return 2 * weight < n ? double(NAN) : weighted / weight;
+    };
     for (int i = 0; i < n_steps; ++i) {
       const double shift = (i - half) * o.step_m;
       const Eigen::Vector2d ci = c + shift * along;
       const double ri = r * (cam_dist + shift) / cam_dist;
       const Eigen::Vector2d q = ck.head<2>() - ci;
-      double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
-      int n = 0;
-      for (size_t m = 0; m < rays.size(); ++m) {
+      ncc[p][i] = correlate([&](size_t m) -> std::optional<Eigen::Vector3d> {
         const Eigen::Vector3d& w = rays[m];
         const double a = w.head<2>().squaredNorm(), b = q.dot(w.head<2>());
         const double disc = b * b - a * (q.squaredNorm() - ri * ri);
-        if (a < 1e-12 || disc < 0) continue;
+        if (a < 1e-12 || disc < 0) return std::nullopt;
         const double s = (-b - std::sqrt(disc)) / a;
-        if (s <= 0) continue;
-        const Eigen::Vector3d p_j = j_from_world_rotation * (ck + s * w) + j_from_world.translation;
-        if (p_j.z() <= 0.1) continue;
-        const Eigen::Vector2d px = cam.ImageFromCam(p_j);
-        if (seen[j].Hidden(px.x())) continue;
-        const float vj = BilinearGray(img_j, px.x(), px.y());
-        if (vj < 0) continue;
-        const double va = values[m];
-        sa += va, sb += vj, saa += va * va, sbb += double(vj) * vj, sab += va * vj;
-        ++n;
-      }
-      if (n < o.min_pixels || 2 * n < static_cast<int>(rays.size())) continue;
-      const double cov = sab - sa * sb / n, var_a = saa - sa * sa / n, var_b = sbb - sb * sb / n;
-      if (var_a <= 1e-6 * n || var_b <= 1e-6 * n) continue;
-      ncc[p][i] = cov / std::sqrt(var_a * var_b);
+        if (s <= 0) return std::nullopt;
+        return j_from_world_rotation * (ck + s * w) + j_from_world.translation;
+      });
     }
   }
   // The mean over pairs that compared at every distance, so that each distance has the same pairs,
@@ -251,8 +321,12 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
   out.peak_ncc = score[best];
   out.end_ncc = 0.5 * (score.front() + score.back());
   spdlog::debug(
-      "bark depth ({:.2f}, {:.2f}) r {:.3f}: {} pairs, peak {:.3f} at {:+.3f} m, ends {:.3f}",
-      c.x(), c.y(), r, out.pairs, out.peak_ncc, (best - half) * o.step_m, out.end_ncc);
+      "bark depth ({:.2f}, {:.2f}) r {:.3f}{}: {} pairs, peak {:.3f} at {:+.3f} m, ends {:.3f}",
+      c.x(), c.y(), r,
+      window.hollow_share > 0
+          ? fmt::format(" (rim {:.2f}-{:.2f})", window.hollow_share, window.outer_share)
+          : "",
+      out.pairs, out.peak_ncc, (best - half) * o.step_m, out.end_ncc);
   out.at_search_end = best == 0 || best == n_steps - 1;
   if (out.at_search_end) return out;
   if (out.peak_ncc < o.min_peak_ncc || out.peak_ncc - out.end_ncc < o.min_peak_contrast) return out;
@@ -263,6 +337,23 @@ BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
   out.scale = (cam_dist + out.shift_m) / cam_dist;
   out.ok = true;
   return out;
+}
+
+}  // namespace
+
+BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& t,
+                           const TangentViews& v, const Eigen::Vector2d& c, double r,
+                           double breast_z) {
+  return MeasureBarkIn(o, t, v, c, r, breast_z,
+                       {.hollow_share = 0.0, .outer_share = o.inner_share});
+}
+
+BarkDepth MeasureRimBark(const BarkDepthOptions& o, const TangentOptions& t, const TangentViews& v,
+                         const Eigen::Vector2d& c, double r, double inner_radius, double breast_z) {
+  const double hollow = inner_radius / r + o.rim_gap_share;
+  if (!(hollow > 0 && hollow < o.rim_outer_share)) return {};
+  return MeasureBarkIn(o, t, v, c, r, breast_z,
+                       {.hollow_share = hollow, .outer_share = o.rim_outer_share});
 }
 
 BarkVerdict JudgeBark(const BarkDepthOptions& o, const BarkDepth& bark) {

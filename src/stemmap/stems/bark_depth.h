@@ -43,17 +43,20 @@ struct BarkDepthOptions {
   // sapling's crown, leaves, a shrub) and are left out, when they are at most this share of the
   // views compared.
   double max_hidden_view_share = 0.34;
+  // The rim of a circle beyond a narrower one inside it (MeasureRimBark): from this share of the
+  // width beyond the narrower circle's outline out to rim_outer_share of the width (an outline's
+  // own pixels mix the stem with what lies behind).
+  double rim_gap_share = 0.03;
+  double rim_outer_share = 0.95;
   void Check() const;
 };
 
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
-NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(BarkDepthOptions, enabled, baseline_m,
-                                                baseline_share, min_baseline_m, band_half_height_m,
-                                                inner_share, search_m, step_m, max_pixels,
-                                                min_pixels, min_pairs, min_peak_ncc,
-                                                min_peak_contrast, min_surface_ncc,
-                                                max_hidden_view_share)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
+    BarkDepthOptions, enabled, baseline_m, baseline_share, min_baseline_m, band_half_height_m,
+    inner_share, search_m, step_m, max_pixels, min_pixels, min_pairs, min_peak_ncc,
+    min_peak_contrast, min_surface_ncc, max_hidden_view_share, rim_gap_share, rim_outer_share)
 
 struct BarkDepth {
   bool ok = false;
@@ -70,6 +73,15 @@ struct BarkDepth {
 BarkDepth MeasureBarkDepth(const BarkDepthOptions& o, const TangentOptions& silhouettes,
                            const TangentViews& views, const Eigen::Vector2d& centre, double radius,
                            double breast_z);
+
+// The bark of the rim of the circle (centre, radius) beyond a narrower circle of inner_radius
+// inside it, measured as MeasureBarkDepth measures the middle. Where the narrower circle lies
+// inside the stem, the rim is the stem's surface and lines up through the wider circle; where
+// the narrower one is the stem's outline, the rim is what lies behind it, at another depth.
+// Not measured (ok false, no pairs) where the rim is empty.
+BarkDepth MeasureRimBark(const BarkDepthOptions& o, const TangentOptions& silhouettes,
+                         const TangentViews& views, const Eigen::Vector2d& centre, double radius,
+                         double inner_radius, double breast_z);
 
 // What `bark` says of the circle it was measured on: it lines up (ok); it lines up nowhere (enough
 // pairs compared, and below min_peak_ncc at every distance or best at the search's end); or it

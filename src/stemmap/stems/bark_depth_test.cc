@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <opencv2/core.hpp>
+#include <utility>
 
 #include "stemmap/core/check_message.h"
 #include "stemmap/core/error.h"
@@ -141,6 +142,54 @@ TEST(BarkDepth, ViewsWhereLeavesCoverTheBarkAreLeftOut) {
 // The bark lines up, lines up nowhere (a circle around two things), or cannot tell: too few views
 // show it, or it correlates alike at every distance (no peak: it cannot place the circle, which
 // says nothing against it).
+// The rim of a stem's circle beyond a narrower circle inside it is bark, and lines up through the
+// stem's circle; the rim of a wider circle around the stem is what lies behind it, and does not.
+// Swept over the narrower circle's share of the stem, the wider one's of it, and limbs shaded or
+// not (shading that falls off toward the limbs is what makes edges inside a stem); and with a
+// stem behind on one side.
+TEST(BarkDepth, TheRimBeyondACircleInsideTheStemIsItsBark) {
+  const PinholeCamera camera = PinholeCamera::FromHfov(960, 540, 67.0);
+  const Eigen::Vector2d centre(7.0, 0.3);
+  const double radius = 0.18;
+  const BarkDepthOptions o;
+  for (const Texture texture : {Texture::kIrregular, Texture::kLimbShaded}) {
+    const RenderedStem scene =
+        RenderStems({{centre.x(), centre.y(), radius}}, true, false, texture, camera);
+    const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+    for (const double inner : {0.6, 0.7, 0.8}) {
+      SCOPED_TRACE(::testing::Message() << "inner circle " << inner << " of the stem");
+      const BarkDepth rim =
+          MeasureRimBark(o, TangentOptions(), views, centre, radius, inner * radius, 1.37);
+      EXPECT_EQ(JudgeBark(o, rim), BarkVerdict::kLinesUp) << rim.peak_ncc;
+      EXPECT_NEAR(rim.shift_m, 0.0, 0.01);
+    }
+    for (const double outer : {1.25, 1.4}) {
+      SCOPED_TRACE(::testing::Message() << "outer circle " << outer << " of the stem");
+      const BarkDepth rim =
+          MeasureRimBark(o, TangentOptions(), views, centre, outer * radius, radius, 1.37);
+      EXPECT_NE(JudgeBark(o, rim), BarkVerdict::kLinesUp) << rim.peak_ncc;
+    }
+  }
+  // A darker stem 1.6 m behind fills the wider circle's rim on one side, a plain sky the other:
+  // the sides differ in brightness whatever the warp, so each side is correlated on its own.
+  const RenderedStem behind = RenderStems({{centre.x(), centre.y(), radius}, {8.6, 0.8, 0.2}},
+                                          false, false, Texture::kIrregular, camera);
+  const TangentViews behind_views{&behind.camera, &behind.keyframes, &behind.gray};
+  const BarkDepth rim =
+      MeasureRimBark(o, TangentOptions(), behind_views, centre, 1.25 * radius, radius, 1.37);
+  EXPECT_NE(JudgeBark(o, rim), BarkVerdict::kLinesUp) << rim.peak_ncc;
+  // A rim a few pixels wide says nothing, and there is none where the narrower circle reaches its
+  // outer edge.
+  const RenderedStem scene =
+      RenderStems({{centre.x(), centre.y(), radius}}, true, false, Texture::kIrregular, camera);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  for (const double inner : {0.9, 1.0}) {
+    const BarkDepth rim =
+        MeasureRimBark(o, TangentOptions(), views, centre, radius, inner * radius, 1.37);
+    EXPECT_EQ(JudgeBark(o, rim), BarkVerdict::kSaysNothing) << inner;
+  }
+}
+
 TEST(JudgeBark, TellsBarkThatLinesUpNowhereFromBarkThatCannotTell) {
   const BarkDepthOptions o;
   BarkDepth b;
@@ -175,6 +224,15 @@ TEST(BarkDepth, OptionsAreChecked) {
   o = BarkDepthOptions();
   o.max_hidden_view_share = 1.0;
   EXPECT_EQ(CheckMessage(o), "the share of views leaves may hide from the bark must lie in [0, 1)");
+  for (const auto& [gap, outer] : {std::pair{-0.01, 0.95}, {0.3, 0.2}, {0.03, 1.1}}) {
+    o = BarkDepthOptions();
+    o.rim_gap_share = gap;
+    o.rim_outer_share = outer;
+    EXPECT_EQ(CheckMessage(o),
+              "the bark's rim must reach from a share of the width at least 0 up to one greater, "
+              "at most 1")
+        << gap << ", " << outer;
+  }
 }
 
 }  // namespace

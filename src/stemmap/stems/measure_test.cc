@@ -84,6 +84,10 @@ TEST(MeasureOptions, TheSilhouettesSettingsAreChecked) {
   o.tangent.on_bark_max_rms_px = -1;
   EXPECT_EQ(CheckMessage(o), "the rms of a fit the bark lines up on must not be negative");
   o = MeasureOptions();
+  o.tangent.rim_min_share = 1.2;
+  EXPECT_EQ(CheckMessage(o),
+            "the share of a wider fit a fit inside it must reach must lie in [0, 1]");
+  o = MeasureOptions();
   o.tangent.min_views_each_side = -1;
   EXPECT_EQ(CheckMessage(o), "the views each side needs must not be negative");
   o = MeasureOptions();

@@ -369,7 +369,12 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
                                    breast_z);
       return JudgeBark(bark_options, last_bark);
     };
-    TangentFit f = FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark, bark_says);
+    auto rim_says = [&](const TangentFit& wider, double inner_radius) {
+      return JudgeBark(bark_options, MeasureRimBark(bark_options, topt, views, wider.centre,
+                                                    wider.radius_m, inner_radius, breast_z));
+    };
+    TangentFit f =
+        FitTangentRays(topt, views, s.centre_xy, r0, breast_z, on_bark, bark_says, rim_says);
     const bool asked =
         last_asked.ok && last_asked.centre == f.centre && last_asked.radius_m == f.radius_m;
     const double px_m = s.centre_xy.norm() / camera.fx;

@@ -58,6 +58,9 @@ void TangentOptions::Check() const {
   if (!(on_bark_max_rms_px >= 0)) {
     throw InputError("the rms of a fit the bark lines up on must not be negative");
   }
+  if (!(rim_min_share >= 0 && rim_min_share <= 1)) {
+    throw InputError("the share of a wider fit a fit inside it must reach must lie in [0, 1]");
+  }
   if (!(pooled_min_extra_rays >= 0 && few_views_min_two_sided >= 0 && few_views_min_share >= 0 &&
         few_views_min_share <= 1)) {
     throw InputError(
@@ -661,12 +664,50 @@ std::optional<TangentFit> FitTheBarkLinesUpOn(
   return std::nullopt;
 }
 
+std::optional<TangentFit> FitWhoseRimIsBark(
+    const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
+    double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&, double)>& rim) {
+  const Eigen::Vector2d along = chosen.centre.normalized();
+  const Eigen::Vector2d across(-along.y(), along.x());
+  std::vector<const TangentFit*> around;
+  for (const TangentFit& f : tried) {
+    const double across_m = std::abs(across.dot(f.centre - chosen.centre));
+    if (f.ok && f.radius_m >= o.recheck_min_gain * chosen.radius_m &&
+        chosen.radius_m >= o.rim_min_share * f.radius_m &&
+        f.radius_m < o.WidestFitScale() * radius0 && f.rms_m < o.on_bark_max_rms_px * px_m &&
+        across_m <= f.radius_m - chosen.radius_m + px_m) {
+      around.push_back(&f);
+    }
+  }
+  std::ranges::stable_sort(
+      around, [](const TangentFit* a, const TangentFit* b) { return a->rays > b->rays; });
+  for (const TangentFit* f : around) {
+    if (rim(*f, chosen.radius_m) == BarkVerdict::kLinesUp) return *f;
+  }
+  return std::nullopt;
+}
+
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z,
                           const std::function<bool(const TangentFit&)>& accept,
-                          const std::function<BarkVerdict(const TangentFit&)>& bark) {
+                          const std::function<BarkVerdict(const TangentFit&)>& bark,
+                          const std::function<BarkVerdict(const TangentFit&, double)>& rim) {
   std::vector<TangentFit> tried;
-  const TangentFit fit = ChooseAmongStarts(o, v, centre0, radius0, breast_z, accept, &tried);
+  TangentFit fit = ChooseAmongStarts(o, v, centre0, radius0, breast_z, accept, &tried);
+  // Shading that falls off toward a round stem's limbs is symmetric about each view's line of
+  // sight, so the edges it makes lie at a fixed share of the stem's apparent half-width in every
+  // view, tangent to a smaller concentric circle; tangency cannot tell them from the outline. The
+  // rim between the two circles can: inside the stem it is bark, and lines up through the wider
+  // circle; beyond the stem's outline it is what lies behind, at another depth.
+  if (fit.ok && rim && o.recheck_rim) {
+    const double px_m = centre0.norm() / v.camera->fx;
+    if (const std::optional<TangentFit> wider =
+            FitWhoseRimIsBark(o, tried, fit, radius0, px_m, rim)) {
+      spdlog::debug("tangent: ({:.2f}, {:.2f}) r {:.3f} replaces r {:.3f}: its rim is bark",
+                    wider->centre.x(), wider->centre.y(), wider->radius_m, fit.radius_m);
+      fit = *wider;
+    }
+  }
   // The starts' fits are ranked by their silhouettes alone, and a circle around two things
   // (a thin stem and the outline of a thicker one behind it, a stem and a gap) can show both
   // sides in more views than the stem's own. It does not warp one view's bark onto the next:

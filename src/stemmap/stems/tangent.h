@@ -71,6 +71,14 @@ struct TangentOptions {
   // A start's fit the bark lines up on, two-sided in most of its views and tangent to one circle
   // to within this rms (px at the stem), replaces a chosen fit the bark does not line up on.
   double on_bark_max_rms_px = 2.0;
+  // A start's fit around the chosen one, at least recheck_min_gain as wide and tangent to one
+  // circle within on_bark_max_rms_px, replaces it where the bark of the rim between the two lines
+  // up through the wider circle: the chosen one closed inside the stem (FitTangentRays). Only a
+  // chosen fit at least rim_min_share of the wider one's radius: edges inside a stem lie near its
+  // outline (at 64-80 % of its width where seen), and a circle narrower still within a wider one
+  // whose rim lines up is a sapling within its leafy crown, or within a shrub, as often.
+  bool recheck_rim = true;
+  double rim_min_share = 0.6;
   double narrow_min_share = 0.35;  // of radius0: the narrowest fit that can stand for the stem
   // And from the centre moved across the line of sight by these multiples of radius0 (each way):
   // stereo smears a stem's points onto what stands beside it, so the cloud can place a thin stem
@@ -137,8 +145,9 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     prior_share_of_distance, min_rays, max_sideways_m, max_move_m, max_move_prior_sigmas,
     occluder_min_gap_m, refits, wide_start_scales, recheck_wider_scale, recheck_min_gain,
     recheck_rms_slack_px, narrow_start_scales, narrow_max_rms_px, narrow_min_share,
-    on_bark_max_rms_px, sideways_start_shifts, pooled_min_extra_rays, few_views_min_two_sided,
-    few_views_min_share, settle_few_views, min_views_each_side, refine_on_brightness, blur_sigma_px)
+    on_bark_max_rms_px, recheck_rim, rim_min_share, sideways_start_shifts, pooled_min_extra_rays,
+    few_views_min_two_sided, few_views_min_share, settle_few_views, min_views_each_side,
+    refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
@@ -226,17 +235,30 @@ std::optional<TangentFit> FitTheBarkLinesUpOn(
     const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
     double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&)>& bark);
 
+// Among the starts' fits `tried` around `chosen` (at least recheck_min_gain as wide and at most
+// 1 / rim_min_share, within the widest start's reach of radius0, offset from it across the line of
+// sight by no more than the difference of their radii and a pixel, and tangent to one circle within
+// on_bark_max_rms_px; px_m: metres a pixel spans at the stem), the one with the most silhouettes
+// whose rim beyond `chosen` the bark says lines up (`rim`: the wider fit and the narrower radius).
+// None when none does.
+std::optional<TangentFit> FitWhoseRimIsBark(
+    const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
+    double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&, double)>& rim);
+
 // Starts from a stem estimate (centre, radius) and the height of breast height in the plot frame.
 // The circle found stays within max_sideways_m (or the radius a start supposes, radius0 or a wide
 // one) of centre0 across the line of sight and within MaxMoveFrom(centre0) of it.
 // `accept`, when given, judges a fit on other evidence (e.g. the bark, bark_depth.h): a stem seen
 // two-sided in few views takes the best of the starts' fits that it accepts (FitSeenInFewViews).
 // `bark`, when given, says what the bark makes of a fit's circle: a chosen fit it lines up nowhere
-// on gives way to FitTheBarkLinesUpOn.
+// on gives way to FitTheBarkLinesUpOn. `rim`, when given, says what the bark makes of the rim of
+// a circle beyond a narrower radius (bark_depth.h, MeasureRimBark): a fit around the chosen one
+// whose rim lines up replaces it (FitWhoseRimIsBark, recheck_rim).
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z,
                           const std::function<bool(const TangentFit&)>& accept = {},
-                          const std::function<BarkVerdict(const TangentFit&)>& bark = {});
+                          const std::function<BarkVerdict(const TangentFit&)>& bark = {},
+                          const std::function<BarkVerdict(const TangentFit&, double)>& rim = {});
 
 // Where a disagreement profile first rises above tau going from `start` in direction dir (+1 or
 // -1) and stays above it on average over the next `run` samples: bark that the warp misaligns on

@@ -488,6 +488,49 @@ TEST(FitTheBarkLinesUpOn, OnlyANarrowerFitReplacesTheChosenOne) {
   }
 }
 
+// Edges that shading makes inside a stem lie on a smaller concentric circle. A start's fit around
+// the chosen one replaces it where the rim between them is bark: any such fit, wider by the
+// recheck's gain but not many times as wide, offset across the line of sight by no more than the
+// radii's difference and a pixel, and tight; the one with the most silhouettes first.
+TEST(FitWhoseRimIsBark, AFitAroundTheChosenOneWhoseRimIsBarkReplacesIt) {
+  const TangentOptions o;
+  const double px_m = 0.006, radius0 = 0.2;
+  const Eigen::Vector2d centre(-8.51, 3.86);
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre.y(), centre.x()).normalized();
+  auto fit = [&](double r, double across_m, int rays, double rms_px = 1.0) {
+    TangentFit f;
+    f.ok = true;
+    f.centre = centre + across_m * across + 0.04 * centre.normalized();
+    f.radius_m = r;
+    f.rays = rays;
+    f.rms_m = rms_px * px_m;
+    return f;
+  };
+  TangentFit chosen = fit(0.152, 0.0, 45);
+  chosen.centre = centre;
+  const auto rim_is_bark = [](const TangentFit&, double) { return BarkVerdict::kLinesUp; };
+  const auto rim_is_not = [](const TangentFit&, double) { return BarkVerdict::kLinesUpNowhere; };
+  for (const double side : {-1.0, 1.0}) {
+    for (const double across_m : {0.0, 0.02, 0.035, 0.04}) {
+      SCOPED_TRACE(::testing::Message() << side * across_m << " m across");
+      const std::vector<TangentFit> tried = {chosen, fit(0.189, side * across_m, 31),
+                                             fit(0.19, side * across_m, 20)};
+      const std::optional<TangentFit> wider =
+          FitWhoseRimIsBark(o, tried, chosen, radius0, px_m, rim_is_bark);
+      ASSERT_TRUE(wider.has_value());
+      EXPECT_EQ(wider->rays, 31);
+      EXPECT_FALSE(FitWhoseRimIsBark(o, tried, chosen, radius0, px_m, rim_is_not));
+    }
+  }
+  // Beside it rather than around it, hardly wider, more than 1 / rim_min_share as wide (a
+  // sapling within its crown), loose, or beyond the widest start: none.
+  for (const TangentFit& other : {fit(0.189, 0.05, 31), fit(0.16, 0.0, 31), fit(0.26, 0.0, 31),
+                                  fit(0.189, 0.0, 31, 2.5), fit(0.6, 0.0, 31)}) {
+    EXPECT_FALSE(FitWhoseRimIsBark(o, {chosen, other}, chosen, radius0, px_m, rim_is_bark))
+        << other.radius_m << " m, " << other.rms_m / px_m << " px";
+  }
+}
+
 TEST(Tangent, AThinStemInFrontOfAThickerOneKeepsItsOwnOutlineWhereItsBarkLinesUp) {
   const PinholeCamera camera = PinholeCamera::FromHfov(960, 540, 67.0);
   const Eigen::Vector3d thin(7.3, 0.0, 0.063);

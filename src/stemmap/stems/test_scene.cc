@@ -36,18 +36,20 @@ RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool texture
           const double az = std::atan2(hit.y(), hit.x());
           luma = 80 + 40 * i;
           if (texture == Texture::kRegular) luma += 25 * std::sin(40 * az);
-          if (texture == Texture::kIrregular) {
+          if (texture == Texture::kIrregular || texture == Texture::kLimbShaded) {
             // Bark pieces about 3 cm across and 5 cm high.
             const double z = world_from_cam.translation.z() + t * ray.z();
             luma += 40 * noise.Noise2(stems[i].z() * (az + M_PI) / 0.03 + 100 * i, z / 0.05);
           }
+          const double facing = -hit.normalized().dot(stems[i].head<2>().normalized());
+          if (texture == Texture::kLimbShaded && facing < std::cos(50 * M_PI / 180)) luma -= 60;
           if (sunlit)
             luma = 70 + 130 * std::sqrt(std::max(0.0, hit.normalized().y())) + 0.4 * (luma - 80);
         }
         if (nearest > 1e8 && textured_background) {
           const double az = std::atan2(u.y(), u.x());
           const double elevation = ray.z() / u.norm();
-          luma = texture == Texture::kIrregular
+          luma = texture == Texture::kIrregular || texture == Texture::kLimbShaded
                      ? 150 + 60 * noise.Noise2(az * 250.0 + 300.0, elevation * 60.0)
                      : 150 + 50 * std::sin(400 * az) * std::cos(30 * elevation);
         }

@@ -19,8 +19,11 @@ struct RenderedStem {
 
 // Textures: regular (bark furrows a stripe every 9° of the stem's azimuth, a textured background
 // a stripe every 0.9°), irregular (bark and background value noise, nothing periodic), or plain
-// bark (one grey) before the regular background.
-enum class Texture { kRegular, kIrregular, kPlainBark };
+// bark (one grey) before the regular background, or irregular bark whose limbs are shaded (where
+// the surface turns more than 50 degrees from the plot centre, 60 grey levels darker: shading
+// symmetric about the line of sight, whose edges lie at a fixed share of the stem's apparent
+// half-width in every view).
+enum class Texture { kRegular, kIrregular, kPlainBark, kLimbShaded };
 
 // Stems as (x, y, radius); the nearest one a pixel's ray meets is seen, each with its own bark,
 // in front of either a plain sky or a textured far background. With `sunlit`, sun from +y lights
