@@ -694,11 +694,12 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const std::function<BarkVerdict(const TangentFit&, double)>& rim) {
   std::vector<TangentFit> tried;
   TangentFit fit = ChooseAmongStarts(o, v, centre0, radius0, breast_z, accept, &tried);
-  // Shading that falls off toward a round stem's limbs is symmetric about each view's line of
-  // sight, so the edges it makes lie at a fixed share of the stem's apparent half-width in every
-  // view, tangent to a smaller concentric circle; tangency cannot tell them from the outline. The
-  // rim between the two circles can: inside the stem it is bark, and lines up through the wider
-  // circle; beyond the stem's outline it is what lies behind, at another depth.
+  // A fit can close inside the stem: a circle too narrow misaligns the bark beyond it, whose
+  // edges then hold it narrow, and shading across a round stem makes edges at a fixed share of
+  // its apparent half-width in every view, tangent to a smaller concentric circle. Tangency
+  // cannot tell them from the outline; the rim between the two circles can: inside the stem it
+  // is bark, and lines up through the wider circle; beyond the stem's outline it is what lies
+  // behind, at another depth. About two rims are compared per plot.
   if (fit.ok && rim && o.recheck_rim) {
     const double px_m = centre0.norm() / v.camera->fx;
     if (const std::optional<TangentFit> wider =
