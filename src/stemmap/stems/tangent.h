@@ -75,10 +75,10 @@ struct TangentOptions {
   // circle within on_bark_max_rms_px, replaces it where the bark of the rim between the two lines
   // up through the wider circle: the chosen one closed inside the stem (FitTangentRays). Only a
   // chosen fit at least rim_min_share of the wider one's radius: edges inside a stem lie near its
-  // outline (at 64-80 % of its width where seen), and a circle narrower still within a wider one
-  // whose rim lines up is a sapling within its leafy crown, or within a shrub, as often.
+  // outline (at 54-80 % of its width where seen), and a circle under half a wider one whose rim
+  // lines up is a sapling within its leafy crown, or within a shrub, as often (40-45 %).
   bool recheck_rim = true;
-  double rim_min_share = 0.6;
+  double rim_min_share = 0.5;
   double narrow_min_share = 0.35;  // of radius0: the narrowest fit that can stand for the stem
   // And from the centre moved across the line of sight by these multiples of radius0 (each way):
   // stereo smears a stem's points onto what stands beside it, so the cloud can place a thin stem

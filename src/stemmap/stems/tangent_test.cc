@@ -524,7 +524,7 @@ TEST(FitWhoseRimIsBark, AFitAroundTheChosenOneWhoseRimIsBarkReplacesIt) {
   }
   // Beside it rather than around it, hardly wider, more than 1 / rim_min_share as wide (a
   // sapling within its crown), loose, or beyond the widest start: none.
-  for (const TangentFit& other : {fit(0.189, 0.05, 31), fit(0.16, 0.0, 31), fit(0.26, 0.0, 31),
+  for (const TangentFit& other : {fit(0.189, 0.05, 31), fit(0.16, 0.0, 31), fit(0.32, 0.0, 31),
                                   fit(0.189, 0.0, 31, 2.5), fit(0.6, 0.0, 31)}) {
     EXPECT_FALSE(FitWhoseRimIsBark(o, {chosen, other}, chosen, radius0, px_m, rim_is_bark))
         << other.radius_m << " m, " << other.rms_m / px_m << " px";
