@@ -61,6 +61,9 @@ void TangentOptions::Check() const {
   if (!(rim_min_share >= 0 && rim_min_share <= 1)) {
     throw InputError("the share of a wider fit a fit inside it must reach must lie in [0, 1]");
   }
+  if (!(tighter_rms_share >= 0 && tighter_rms_share <= 1)) {
+    throw InputError("the rms share of a tighter fit must lie in [0, 1]");
+  }
   if (!(pooled_min_extra_rays >= 0 && few_views_min_two_sided >= 0 && few_views_min_share >= 0 &&
         few_views_min_share <= 1)) {
     throw InputError(
@@ -664,6 +667,32 @@ std::optional<TangentFit> FitTheBarkLinesUpOn(
   return std::nullopt;
 }
 
+std::optional<TangentFit> TighterFitTheBarkAllows(
+    const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
+    double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&)>& bark) {
+  std::vector<const TangentFit*> candidates;
+  for (const TangentFit& f : tried) {
+    const bool stands = f.ok && f.rms_m < o.narrow_max_rms_px * px_m &&
+                        (f.two_sided_views >= 3 || SidesSeenApart(o, f, px_m)) &&
+                        f.radius_m > o.narrow_min_share * radius0 &&
+                        f.radius_m < o.WidestFitScale() * radius0;
+    if (stands && f.rms_m < o.tighter_rms_share * chosen.rms_m) candidates.push_back(&f);
+  }
+  std::ranges::stable_sort(candidates, [](const TangentFit* a, const TangentFit* b) {
+    return a->two_sided_views > b->two_sided_views ||
+           (a->two_sided_views == b->two_sided_views && a->rms_m < b->rms_m);
+  });
+  std::vector<BarkVerdict> verdicts;
+  for (const TangentFit* f : candidates) {
+    verdicts.push_back(bark(*f));
+    if (verdicts.back() == BarkVerdict::kLinesUp) return *f;
+  }
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    if (verdicts[i] == BarkVerdict::kSaysNothing) return *candidates[i];
+  }
+  return std::nullopt;
+}
+
 std::optional<TangentFit> FitWhoseRimIsBark(
     const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
     double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&, double)>& rim) {
@@ -715,13 +744,21 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
   // when the bark lines up nowhere on the chosen fit, a start's fit it lines up on replaces it.
   if (!fit.ok || !bark || bark(fit) != BarkVerdict::kLinesUpNowhere) return fit;
   const double px_m = centre0.norm() / v.camera->fx;
-  const std::optional<TangentFit> on_bark = FitTheBarkLinesUpOn(o, tried, fit, radius0, px_m, bark);
+  std::optional<TangentFit> on_bark = FitTheBarkLinesUpOn(o, tried, fit, radius0, px_m, bark);
+  // A stem just beside a nearer one on its bearing: a start moved sideways that took the nearer
+  // stem's edge for its own where it hides the stem settles on a looser circle between them, which
+  // shows both sides in more views than the stem's own, and the bark lines up nowhere on it. The
+  // stem's own fit, tighter, shows both sides in few views and its bark in few (a narrower fit
+  // need not exist, so FitTheBarkLinesUpOn has none).
+  if (!on_bark && o.tighter_rms_share > 0) {
+    on_bark = TighterFitTheBarkAllows(o, tried, fit, radius0, px_m, bark);
+  }
   if (!on_bark) return fit;
   spdlog::debug(
-      "tangent: ({:.2f}, {:.2f}) r {:.3f} ({} two-sided) replaces r {:.3f}: the bark lines up on "
-      "it",
+      "tangent: ({:.2f}, {:.2f}) r {:.3f} ({} two-sided, rms {:.1f} mm) replaces r {:.3f} (rms "
+      "{:.1f} mm): the bark lines up nowhere on it",
       on_bark->centre.x(), on_bark->centre.y(), on_bark->radius_m, on_bark->two_sided_views,
-      fit.radius_m);
+      1000 * on_bark->rms_m, fit.radius_m, 1000 * fit.rms_m);
   return *on_bark;
 }
 

@@ -79,6 +79,15 @@ struct TangentOptions {
   // lines up is a sapling within its leafy crown, or within a shrub, as often (40-45 %).
   bool recheck_rim = true;
   double rim_min_share = 0.5;
+  // Where the bark lines up nowhere on the chosen fit and on no narrower start's fit, a start's
+  // fit tangent to one circle within at most this share of the chosen one's ray rms replaces it,
+  // if the bark does not contradict it (lines up, or too little shows to tell) and it stands on
+  // its own silhouettes (both sides in three views, or each side in min_views_each_side, within
+  // narrow_max_rms_px). A stem just beside a nearer one on its bearing: a start moved sideways
+  // takes the nearer stem's edge for its own in the views where that hides it, and its looser
+  // fit, drawn towards the nearer stem, shows both sides in more views than the stem's own. 0:
+  // off.
+  double tighter_rms_share = 0.5;
   double narrow_min_share = 0.35;  // of radius0: the narrowest fit that can stand for the stem
   // And from the centre moved across the line of sight by these multiples of radius0 (each way):
   // stereo smears a stem's points onto what stands beside it, so the cloud can place a thin stem
@@ -145,9 +154,9 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     prior_share_of_distance, min_rays, max_sideways_m, max_move_m, max_move_prior_sigmas,
     occluder_min_gap_m, refits, wide_start_scales, recheck_wider_scale, recheck_min_gain,
     recheck_rms_slack_px, narrow_start_scales, narrow_max_rms_px, narrow_min_share,
-    on_bark_max_rms_px, recheck_rim, rim_min_share, sideways_start_shifts, pooled_min_extra_rays,
-    few_views_min_two_sided, few_views_min_share, settle_few_views, min_views_each_side,
-    refine_on_brightness, blur_sigma_px)
+    on_bark_max_rms_px, recheck_rim, rim_min_share, tighter_rms_share, sideways_start_shifts,
+    pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share, settle_few_views,
+    min_views_each_side, refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
@@ -235,6 +244,16 @@ std::optional<TangentFit> FitTheBarkLinesUpOn(
     const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
     double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&)>& bark);
 
+// Among the starts' fits `tried`, those tangent to one circle within tighter_rms_share of
+// `chosen`'s ray rms that stand on their own silhouettes (both sides in three views, or each side
+// in min_views_each_side; within narrow_max_rms_px; px_m: metres a pixel spans at the stem; no
+// narrower than narrow_min_share or wider than the widest start of radius0), the first the bark
+// lines up on, or else the first it says nothing of (`bark`), by most two-sided views, then the
+// tightest. None when the bark lines up nowhere on each.
+std::optional<TangentFit> TighterFitTheBarkAllows(
+    const TangentOptions& o, const std::vector<TangentFit>& tried, const TangentFit& chosen,
+    double radius0, double px_m, const std::function<BarkVerdict(const TangentFit&)>& bark);
+
 // Among the starts' fits `tried` around `chosen` (at least recheck_min_gain as wide and at most
 // 1 / rim_min_share, within the widest start's reach of radius0, offset from it across the line of
 // sight by no more than the difference of their radii and a pixel, and tangent to one circle within
@@ -251,9 +270,10 @@ std::optional<TangentFit> FitWhoseRimIsBark(
 // `accept`, when given, judges a fit on other evidence (e.g. the bark, bark_depth.h): a stem seen
 // two-sided in few views takes the best of the starts' fits that it accepts (FitSeenInFewViews).
 // `bark`, when given, says what the bark makes of a fit's circle: a chosen fit it lines up nowhere
-// on gives way to FitTheBarkLinesUpOn. `rim`, when given, says what the bark makes of the rim of
-// a circle beyond a narrower radius (bark_depth.h, MeasureRimBark): a fit around the chosen one
-// whose rim lines up replaces it (FitWhoseRimIsBark, recheck_rim).
+// on gives way to FitTheBarkLinesUpOn, or else to TighterFitTheBarkAllows. `rim`, when given, says
+// what the bark makes of the rim of a circle beyond a narrower radius (bark_depth.h,
+// MeasureRimBark): a fit around the chosen one whose rim lines up replaces it (FitWhoseRimIsBark,
+// recheck_rim).
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& views,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z,
                           const std::function<bool(const TangentFit&)>& accept = {},

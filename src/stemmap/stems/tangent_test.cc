@@ -488,6 +488,56 @@ TEST(FitTheBarkLinesUpOn, OnlyANarrowerFitReplacesTheChosenOne) {
   }
 }
 
+// A stem just beside a nearer one on its bearing: a start moved sideways took the nearer stem's
+// edge for its own and settled on a looser circle whose bark lines up nowhere. A start's fit at
+// most half as loose that stands on its own silhouettes replaces it: first one the bark lines up
+// on, else one whose bark too little shows to tell; never one the bark rejects, nor one too loose,
+// too narrow or in too few views.
+TEST(TighterFitTheBarkAllows, ATighterFitTheBarkDoesNotRejectReplacesTheChosenOne) {
+  const TangentOptions o;
+  const double px_m = 0.007, radius0 = 0.05;
+  auto fit = [&](double r, int two_sided, double rms_px) {
+    TangentFit f;
+    f.ok = true;
+    f.centre = {5.2, 0.2};
+    f.radius_m = r;
+    f.rms_m = rms_px * px_m;
+    f.tried_views = 23;
+    f.two_sided_views = two_sided;
+    return f;
+  };
+  const TangentFit chosen = fit(0.044, 18, 1.0);
+  const auto verdict_by_radius = [](double lines_up_r, double nothing_r) {
+    return [=](const TangentFit& f) {
+      if (std::abs(f.radius_m - lines_up_r) < 1e-9) return BarkVerdict::kLinesUp;
+      if (std::abs(f.radius_m - nothing_r) < 1e-9) return BarkVerdict::kSaysNothing;
+      return BarkVerdict::kLinesUpNowhere;
+    };
+  };
+  // Both sides in 6 views (bark lines up) and in 9 (too little bark shows): the one it lines up
+  // on, though in fewer views; without it, the other.
+  const std::vector<TangentFit> tried = {chosen, fit(0.052, 6, 0.3), fit(0.049, 9, 0.4)};
+  std::optional<TangentFit> taken =
+      TighterFitTheBarkAllows(o, tried, chosen, radius0, px_m, verdict_by_radius(0.052, 0.049));
+  ASSERT_TRUE(taken.has_value());
+  EXPECT_DOUBLE_EQ(taken->radius_m, 0.052);
+  taken = TighterFitTheBarkAllows(o, tried, chosen, radius0, px_m, verdict_by_radius(-1, 0.049));
+  ASSERT_TRUE(taken.has_value());
+  EXPECT_DOUBLE_EQ(taken->radius_m, 0.049);
+  EXPECT_FALSE(TighterFitTheBarkAllows(o, tried, chosen, radius0, px_m, verdict_by_radius(-1, -1)));
+  // Over half as loose as the chosen fit, too narrow for the cloud's width, or two-sided in two
+  // views (and no side in enough views alone): none, whatever the bark says.
+  for (const TangentFit& other : {fit(0.052, 6, 0.6), fit(0.015, 6, 0.3), fit(0.052, 2, 0.3)}) {
+    const auto any = [](const TangentFit&) { return BarkVerdict::kLinesUp; };
+    EXPECT_FALSE(TighterFitTheBarkAllows(o, {chosen, other}, chosen, radius0, px_m, any))
+        << other.radius_m << " m, " << other.rms_m / px_m << " px, " << other.two_sided_views;
+  }
+  TangentOptions off = o;
+  off.tighter_rms_share = 0;
+  const auto any = [](const TangentFit&) { return BarkVerdict::kLinesUp; };
+  EXPECT_FALSE(TighterFitTheBarkAllows(off, tried, chosen, radius0, px_m, any));
+}
+
 // Edges that shading makes inside a stem lie on a smaller concentric circle. A start's fit around
 // the chosen one replaces it where the rim between them is bark: any such fit, wider by the
 // recheck's gain but not many times as wide, offset across the line of sight by no more than the
