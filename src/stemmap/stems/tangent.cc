@@ -536,6 +536,16 @@ TangentFit SettleFewViewsFit(const TangentOptions& o, const TangentViews& v, con
 
 }  // namespace
 
+namespace {
+
+// Whether a radius lies within the starts' reach of radius0: no narrower than the narrowest fit
+// that can stand for the stem, nor as wide as the widest start.
+bool WithinStartWidths(const TangentOptions& o, double radius_m, double radius0) {
+  return radius_m > o.narrow_min_share * radius0 && radius_m < o.WidestFitScale() * radius0;
+}
+
+}  // namespace
+
 bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const TangentFit& wider,
                       const Eigen::Vector2d& centre0, double radius0, double px_m) {
   const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
@@ -629,8 +639,7 @@ TangentFit ChooseAmongStarts(const TangentOptions& o, const TangentViews& v,
   if (!FitPooledSilhouettes(o, ok_fits, fit, &pooled)) return fit;
   const bool in_place =
       std::abs(across.dot(pooled.centre - fit.centre)) < std::max(o.max_sideways_m, fit.radius_m) &&
-      pooled.radius_m > o.narrow_min_share * radius0 &&
-      pooled.radius_m < o.WidestFitScale() * radius0;
+      WithinStartWidths(o, pooled.radius_m, radius0);
   if (in_place && pooled.rays >= fit.rays + o.pooled_min_extra_rays &&
       pooled.two_sided_views >= fit.two_sided_views &&
       pooled.rms_m < std::max(fit.rms_m, o.narrow_max_rms_px * px_m)) {
@@ -651,8 +660,7 @@ std::optional<TangentFit> FitTheBarkLinesUpOn(
   for (const TangentFit& f : tried) {
     const bool shaped = f.ok && f.two_sided_views >= 3 && 2 * f.two_sided_views >= f.tried_views &&
                         f.rms_m < o.on_bark_max_rms_px * px_m &&
-                        f.radius_m > o.narrow_min_share * radius0 &&
-                        f.radius_m < o.WidestFitScale() * radius0;
+                        WithinStartWidths(o, f.radius_m, radius0);
     // A circle around two things is wider than either: only a narrower fit can be the stem's
     // own (a wider one whose bark lines up may only fit the bark's curve better, as on an
     // elliptical stem, where the chosen circle's bark falls just short).
@@ -674,8 +682,7 @@ std::optional<TangentFit> TighterFitTheBarkAllows(
   for (const TangentFit& f : tried) {
     const bool stands = f.ok && f.rms_m < o.narrow_max_rms_px * px_m &&
                         (f.two_sided_views >= 3 || SidesSeenApart(o, f, px_m)) &&
-                        f.radius_m > o.narrow_min_share * radius0 &&
-                        f.radius_m < o.WidestFitScale() * radius0;
+                        WithinStartWidths(o, f.radius_m, radius0);
     if (stands && f.rms_m < o.tighter_rms_share * chosen.rms_m) candidates.push_back(&f);
   }
   std::ranges::stable_sort(candidates, [](const TangentFit* a, const TangentFit* b) {
