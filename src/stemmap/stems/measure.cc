@@ -64,6 +64,12 @@ void MeasureOptions::Check() const {
   if (!(weak_on_bark_max_rms_px >= 0)) {
     throw InputError("the rms of a weak part's outline on its bark must not be negative");
   }
+  if (!(leafy_edge_scatter_m >= 0 && leafy_edge_scatter_px >= 0)) {
+    throw InputError("a jagged silhouette's scatter about its line must not be negative");
+  }
+  if (!(leafy_edge_share >= 0 && leafy_edge_share <= 1)) {
+    throw InputError("the share of jagged silhouettes that makes a fit leaves must lie in [0, 1]");
+  }
   if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
     throw InputError(
         "the share of a part's width below which its cores are tried must lie in [0, 1]");

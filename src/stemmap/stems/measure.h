@@ -91,6 +91,18 @@ struct MeasureOptions {
   // scatters more than a pixel, and neither leaves nor a shrub carry one view's bark onto the
   // next.
   double weak_on_bark_max_rms_px = 2.0;
+  // A trunk's silhouette is a straight line over the bands of rows around breast height: its
+  // bands stray from it by a fraction of a pixel (the edges' noise) and a few millimetres (the
+  // bark's furrows). A leaf clump's outline is jagged at the scale of its leaves and holes,
+  // centimetres. A silhouette whose bands scatter about its line by more than both of these
+  // (robust; metres and pixels at the stem) is jagged, and a fit with at least leafy_edge_share
+  // of its silhouettes jagged is leaves, a sapling's crown, not a stem: dropped whatever the
+  // bark says (leaves hold still between views as bark does), it still hides what its outline
+  // covers from farther stems' edge searches. A stem seen through leaves in some views keeps the
+  // straight silhouettes of the others. 0: off.
+  double leafy_edge_scatter_m = 0.01;
+  double leafy_edge_scatter_px = 1.2;
+  double leafy_edge_share = 0.67;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -101,7 +113,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
     larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
     narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
-    outline_over_bark_cloud_share, weak_on_bark_max_rms_px)
+    outline_over_bark_cloud_share, weak_on_bark_max_rms_px, leafy_edge_scatter_m,
+    leafy_edge_scatter_px, leafy_edge_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

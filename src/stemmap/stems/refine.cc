@@ -202,9 +202,17 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   return out;
 }
 
-void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part, bool mixed_part_core,
+void PlaceFittedOccluders(std::span<const Stem> fitted, std::span<const Eigen::Vector3d> leaves,
+                          size_t part, bool mixed_part_core,
                           std::vector<Eigen::Vector3d>* occluders) {
   if (fitted.empty() && mixed_part_core) (*occluders)[part] = kNoOccluder;
+  for (size_t k = 0; k < leaves.size(); ++k) {
+    if (k == 0 && fitted.empty()) {
+      (*occluders)[part] = leaves[k];
+    } else {
+      occluders->push_back(leaves[k]);
+    }
+  }
   for (size_t k = 0; k < fitted.size(); ++k) {
     const Stem& s = fitted[k];
     const Eigen::Vector3d circle(s.centre_xy.x(), s.centre_xy.y(),
@@ -272,6 +280,14 @@ bool InShadowOfNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& c
     if (apart < std::asin(rk / dk)) return true;
   }
   return false;
+}
+
+double JaggedSilhouetteShare(const MeasureOptions& o, const TangentFit& fit, double px_m) {
+  return fit.JaggedShare(std::max(o.leafy_edge_scatter_m, o.leafy_edge_scatter_px * px_m));
+}
+
+bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m) {
+  return o.leafy_edge_share > 0 && JaggedSilhouetteShare(o, fit, px_m) >= o.leafy_edge_share;
 }
 
 bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth& cloud_bark) {
@@ -342,7 +358,8 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
   const TangentViews views{&camera, &keyframes, &gray, &occluders};
   const TangentOptions topt =
       o.tangent.ForImageScale(static_cast<double>(camera.width) / bgr_camera.width);
-  std::vector<Stem> kept;  // nearest first
+  std::vector<Stem> kept;               // nearest first
+  std::vector<Eigen::Vector3d> leaves;  // circles of the leafy outlines of the part in hand
   // The silhouettes' verdict on one stem, and the stem as then reported.
   // `outline_may_outweigh_bark`: for the cloud's parts; the larger cloud's stems alone rest on
   // the coarse points' width, too rough to confirm an outline the bark does not.
@@ -401,8 +418,13 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
         "{} tried, rms {:.1f} mm, at ({:.3f}, {:.3f})",
         s.centre_xy.x(), s.centre_xy.y(), f.ok, f.radius_m, r0, f.rays, f.views, f.two_sided_views,
         f.tried_views, 1000 * f.rms_m, f.centre.x(), f.centre.y());
-    s.evidence = {f.tried_views, f.two_sided_views, f.ok ? f.rms_m / px_m : 0.0,
-                  bark.pairs,    bark.peak_ncc,     bark.ok ? bark.shift_m : 0.0};
+    s.evidence = {f.tried_views,
+                  f.two_sided_views,
+                  f.ok ? f.rms_m / px_m : 0.0,
+                  bark.pairs,
+                  bark.peak_ncc,
+                  bark.ok ? bark.shift_m : 0.0,
+                  JaggedSilhouetteShare(o, f, px_m)};
     SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m, bark.ok);
     if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
       const BarkDepth cloud_bark =
@@ -433,6 +455,14 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
     const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
     const bool sharp = HasSharpSilhouettes(f, o.larger_cloud_only_max_rms_px, px_m);
+    if (f.ok && LeafyOutline(o, f, px_m)) {
+      spdlog::debug(
+          "stems: ({:.2f}, {:.2f}) r {:.3f} dropped: {:.0f} % of its silhouettes are jagged, "
+          "leaves",
+          f.centre.x(), f.centre.y(), f.radius_m, 100 * JaggedSilhouetteShare(o, f, px_m));
+      leaves.emplace_back(f.centre.x(), f.centre.y(), f.radius_m);
+      return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
+    }
     if (behind_nearer && !StandsOnItsOwnSilhouettes(o.tangent, f, px_m)) {
       spdlog::debug("stems: ({:.2f}, {:.2f}) dropped: straight behind a listed stem, no clean fit",
                     s.centre_xy.x(), s.centre_xy.y());
@@ -477,8 +507,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
   for (size_t i = 0; i < stems->size(); ++i) {
     const size_t before = kept.size();
     const bool mixed_part_core = (*stems)[i].mixed_part_core;
+    leaves.clear();
     const PartOutcome p = ResolvePart(o, std::move((*stems)[i]), refine, &kept);
-    PlaceFittedOccluders(std::span(kept).subspan(before), i, mixed_part_core, &occluders);
+    PlaceFittedOccluders(std::span(kept).subspan(before), leaves, i, mixed_part_core, &occluders);
     total.fitted += p.fitted;
     total.from_cores += p.from_cores;
     total.dropped += p.dropped;

@@ -29,6 +29,13 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& stem,
                                      const TangentFit& fit, double px_m,
                                      bool bark_lines_up = false);
 
+// The share of a fit's silhouettes whose bands scatter about their lines by more than
+// MeasureOptions::leafy_edge_scatter_m and leafy_edge_scatter_px (px_m: metres a pixel spans at
+// the stem); whether that share makes it a leaf clump's jagged outline, not a trunk's straight
+// one (leafy_edge_share).
+double JaggedSilhouetteShare(const MeasureOptions& o, const TangentFit& fit, double px_m);
+bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m);
+
 // Whether a part whose silhouette fit failed is a stem all the same, kept on its cloud: its
 // silhouettes were found on both sides in a quarter of the views tried (a trunk's two edges; a
 // shrub or sapling seldom shows them so), it was not weakly supported, and the views warped
@@ -74,7 +81,11 @@ inline const Eigen::Vector3d kNoOccluder = Eigen::Vector3d::Zero();
 // radius) among the occluders that farther stems' edge searches stop at; a part that became
 // nothing keeps its cloud circle, unless it was a core of a part no stem as a whole
 // (Stem::mixed_part_core: a shrub's or a sapling's, as often as not), which then hides nothing.
-void PlaceFittedOccluders(std::span<const Stem> fitted, size_t part, bool mixed_part_core,
+// `leaves`: the circles of the leafy outlines its fits found (LeafyOutline): no stems, but they
+// hide what lies behind them as their silhouettes show it, in the part's place where it became
+// nothing else.
+void PlaceFittedOccluders(std::span<const Stem> fitted, std::span<const Eigen::Vector3d> leaves,
+                          size_t part, bool mixed_part_core,
                           std::vector<Eigen::Vector3d>* occluders);
 
 // The larger cloud's stems alone (`candidates`, nearest first), each tried where its centre

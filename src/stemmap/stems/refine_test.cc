@@ -44,23 +44,44 @@ TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
   fitted[0].dbh_tangent_m = 0.4;  // the silhouettes'
   fitted[1].centre_xy = {5.4, -0.3};
   fitted[1].dbh_m = 0.2;
-  PlaceFittedOccluders(fitted, 1, false, &occluders);
+  PlaceFittedOccluders(fitted, {}, 1, false, &occluders);
   ASSERT_EQ(occluders.size(), 4u);
   EXPECT_EQ(occluders[0], Eigen::Vector3d(1, 0, 0.1));
   EXPECT_EQ(occluders[1], Eigen::Vector3d(5.1, 0.2, 0.2));
   EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
   EXPECT_EQ(occluders[3], Eigen::Vector3d(5.4, -0.3, 0.1));
   // A part that became nothing keeps its cloud circle.
-  PlaceFittedOccluders({}, 2, false, &occluders);
+  PlaceFittedOccluders({}, {}, 2, false, &occluders);
   EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
   // A core of a part no stem as a whole that became nothing hides nothing.
-  PlaceFittedOccluders({}, 0, true, &occluders);
+  PlaceFittedOccluders({}, {}, 0, true, &occluders);
   EXPECT_EQ(occluders[0], kNoOccluder);
   EXPECT_FALSE(BesideNearerStem({kNoOccluder}, {5.0, 0.0}, 0.2, 0.0));
   // One that became a stem stands as it.
   occluders[0] = {1, 0, 0.1};
-  PlaceFittedOccluders(std::span(fitted).first(1), 0, true, &occluders);
+  PlaceFittedOccluders(std::span(fitted).first(1), {}, 0, true, &occluders);
   EXPECT_EQ(occluders[0], Eigen::Vector3d(5.1, 0.2, 0.2));
+}
+
+TEST(PlaceFittedOccluders, LeavesHideWhatTheirOutlinesCover) {
+  std::vector<Eigen::Vector3d> occluders = {{1, 0, 0.1}, {5, 0, 0.3}};
+  const std::vector<Eigen::Vector3d> leaves = {{5.2, 0.1, 0.05}, {5.3, -0.2, 0.04}};
+  // A part that became nothing but leaves: they stand in its place, as its silhouettes saw them.
+  PlaceFittedOccluders({}, leaves, 1, false, &occluders);
+  ASSERT_EQ(occluders.size(), 3u);
+  EXPECT_EQ(occluders[1], leaves[0]);
+  EXPECT_EQ(occluders[2], leaves[1]);
+  // Also a core of a part no stem as a whole.
+  PlaceFittedOccluders({}, std::span(leaves).first(1), 0, true, &occluders);
+  EXPECT_EQ(occluders[0], leaves[0]);
+  // Beside a stem the part became, they hide what lies behind them too.
+  std::vector<Stem> fitted(1);
+  fitted[0].centre_xy = {5.0, 0.0};
+  fitted[0].dbh_m = 0.3;
+  PlaceFittedOccluders(fitted, std::span(leaves).last(1), 1, false, &occluders);
+  ASSERT_EQ(occluders.size(), 4u);
+  EXPECT_EQ(occluders[1], Eigen::Vector3d(5.0, 0.0, 0.15));
+  EXPECT_EQ(occluders[3], leaves[1]);
 }
 
 // Stereo smear: a 14.4-cm stem at 5.7 m, and a part 0.7 m behind it on nearly its bearing.
@@ -573,6 +594,33 @@ TEST(ResolvePart, AFitNearThePartsWidthKeepsThePartWithoutTryingItsCores) {
   ASSERT_EQ(kept.size(), 1u);
   EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.40);
   EXPECT_EQ(c.refined, 1);
+}
+
+// A silhouette is jagged where its bands stray from its line by more than both a centimetre and
+// 1.2 px at the stem; two thirds of a fit's silhouettes jagged make it leaves.
+TEST(LeafyOutline, TwoThirdsOfTheSilhouettesJaggedAreLeaves) {
+  const MeasureOptions o;
+  auto fit_with = [](std::vector<double> scatter_m) {
+    TangentFit f;
+    f.ok = true;
+    for (const double m : scatter_m) f.silhouettes.push_back({.edge_scatter_m = m});
+    return f;
+  };
+  const double px_m = 0.004;  // a stem 6 m out at 1 500 px focal length
+  // A trunk: a few millimetres of bark relief; one side beside leaves in half the views.
+  EXPECT_EQ(JaggedSilhouetteShare(o, fit_with({0.002, 0.004, 0.003, 0.005}), px_m), 0.0);
+  EXPECT_FALSE(LeafyOutline(o, fit_with({0.002, 0.02, 0.003, 0.03, 0.004, 0.025}), px_m));
+  // A crown: jagged by centimetres in most views.
+  const TangentFit crown = fit_with({0.03, 0.02, 0.015, 0.004, 0.04, 0.025});
+  EXPECT_NEAR(JaggedSilhouetteShare(o, crown, px_m), 5.0 / 6.0, 1e-12);
+  EXPECT_TRUE(LeafyOutline(o, crown, px_m));
+  // Far out, a centimetre is under the edges' noise of 1.2 px: not jagged.
+  EXPECT_FALSE(LeafyOutline(o, crown, /*px_m=*/0.04));
+  // Off; and no silhouettes, nothing jagged.
+  MeasureOptions off;
+  off.leafy_edge_share = 0;
+  EXPECT_FALSE(LeafyOutline(off, crown, px_m));
+  EXPECT_FALSE(LeafyOutline(o, TangentFit(), px_m));
 }
 
 TEST(JudgeSilhouetteFit, UsesAFitThatAgreesWithTheCloud) {

@@ -268,7 +268,7 @@ bool FirstSustainedCrossing(const std::vector<double>& profile, int start, int d
 }
 
 bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, double y0,
-                 int min_points, double* x_at_y0) {
+                 int min_points, double* x_at_y0, double* scatter_px) {
   const int n = static_cast<int>(x.size());
   if (n < min_points) return false;
   std::vector<double> slopes;
@@ -296,6 +296,10 @@ bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, dou
   // A silhouette leans a few degrees at most.
   if (std::abs(b) > 0.15) return false;
   *x_at_y0 = a;
+  if (scatter_px) {
+    for (int i = 0; i < n; ++i) dev[i] = std::abs(x[i] - (a + b * (y[i] - y0)));
+    *scatter_px = 1.4826 * Median(dev);
+  }
   return true;
 }
 

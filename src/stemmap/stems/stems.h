@@ -124,6 +124,9 @@ struct FitEvidence {
   int bark_pairs = 0;         // keyframe pairs whose bark was compared through the circle
   double bark_ncc = 0.0;      // their mean correlation where the bark lines up best
   double bark_shift_m = 0.0;  // how far that moved the circle along the line of sight
+  // The share of its silhouettes whose bands stray from a straight line as leaves' edges do
+  // (JaggedSilhouetteShare).
+  double jagged_share = 0.0;
 };
 
 struct Stem {

@@ -159,11 +159,12 @@ struct ViewRays {
   bool tried = false;
   int hidden_sides = 0;
   std::array<bool, 2> found = {false, false};
-  std::array<Eigen::Vector2d, 2> normal;  // of each side's tangent ray, toward the stem
-  std::array<double, 2> x = {0, 0};       // the silhouette's column at breast height
-  double y = 0;                           // breast height's row
-  Eigen::Vector2d origin;                 // the camera centre
-  double heading = 0;                     // from the stem toward the camera
+  std::array<Eigen::Vector2d, 2> normal;     // of each side's tangent ray, toward the stem
+  std::array<double, 2> x = {0, 0};          // the silhouette's column at breast height
+  std::array<double, 2> scatter_m = {0, 0};  // its bands' scatter about its line, at the stem
+  double y = 0;                              // breast height's row
+  Eigen::Vector2d origin;                    // the camera centre
+  double heading = 0;                        // from the stem toward the camera
   int used() const { return found[0] + found[1]; }
 };
 
@@ -234,8 +235,8 @@ ViewRays MeasureView(const TangentOptions& o, const TangentViews& v, const Eigen
       ++out.hidden_sides;
       continue;
     }
-    double x;
-    if (!FitEdgeLine(edge_y[s], edge_x[s], p_img.y(), min_points, &x)) continue;
+    double x, scatter_px;
+    if (!FitEdgeLine(edge_y[s], edge_x[s], p_img.y(), min_points, &x, &scatter_px)) continue;
     const Eigen::Vector3d ray = world_from_cam.rotation * cam.CamRayFromImage({x, p_img.y()});
     Eigen::Vector2d dir = ray.head<2>();
     if (dir.norm() < 1e-9) continue;
@@ -245,6 +246,7 @@ ViewRays MeasureView(const TangentOptions& o, const TangentViews& v, const Eigen
     out.found[s] = true;
     out.normal[s] = nrm;
     out.x[s] = x;
+    out.scatter_m[s] = scatter_px * p_cam.z() / cam.fx;
   }
   return out;
 }
@@ -276,11 +278,12 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
         // One line per silhouette for bench/silhouette_edges.py (image left = side 0).
         spdlog::trace(
             "tangent edge: start ({:.3f}, {:.3f}) r_start {:.4f} round {} keyframe {} t {:.4f} "
-            "side {} x {:.2f} y {:.2f}",
-            centre0.x(), centre0.y(), r_start, round, k, (*v.keyframes)[k].t_s, s, w.x[s], w.y);
+            "side {} x {:.2f} y {:.2f} scatter {:.1f} mm",
+            centre0.x(), centre0.y(), r_start, round, k, (*v.keyframes)[k].t_s, s, w.x[s], w.y,
+            1000 * w.scatter_m[s]);
         normals.push_back(w.normal[s]);
         origins.push_back(w.origin);
-        silhouettes.push_back({k, s, w.normal[s], w.origin, w.heading});
+        silhouettes.push_back({k, s, w.normal[s], w.origin, w.heading, w.scatter_m[s]});
         ++side_rays[s];
       }
       if (w.used() == 2) ++two_sided;
@@ -353,6 +356,12 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
 
 }  // namespace
 
+double TangentFit::JaggedShare(double scatter_m) const {
+  if (silhouettes.empty()) return 0.0;
+  const auto jagged = std::ranges::count_if(
+      silhouettes, [&](const Ray& ray) { return ray.edge_scatter_m > scatter_m; });
+  return static_cast<double>(jagged) / static_cast<double>(silhouettes.size());
+}
 int TangentFit::SideViews(int side) const {
   std::vector<int> keyframes;
   for (const Ray& ray : silhouettes) {

@@ -182,8 +182,13 @@ struct TangentFit {
     int keyframe = 0, side = 0;
     Eigen::Vector2d normal, origin;
     double heading = 0;
+    // How far the silhouette's bands scatter about its line (robust, metres at the stem): a
+    // trunk's outline is straight over the bands, a leaf clump's jagged.
+    double edge_scatter_m = 0;
   };
   std::vector<Ray> silhouettes;
+  // The share of its silhouettes whose edge_scatter_m exceeds `scatter_m` (0 without any).
+  double JaggedShare(double scatter_m) const;
   // The views that gave the silhouette of `side` (0 left, 1 right) in the last round.
   int SideViews(int side) const;
 };
@@ -291,9 +296,10 @@ bool FirstSustainedCrossing(const std::vector<double>& profile, int start, int d
 // trunk's silhouette is straight over a few decimetres (taper and lean are smooth), so a robust
 // line (Theil-Sen start, then least squares on the points within 3 MADs) averages the bands'
 // noise and ignores a band that caught a neighbour or a furrow. False with fewer than min_points
-// on the line or a line leaning more than 0.15 px/px.
+// on the line or a line leaning more than 0.15 px/px. `scatter_px` (if given): the bands' robust
+// scatter about the line (1.4826 times their median distance from it, px).
 bool FitEdgeLine(const std::vector<double>& y, const std::vector<double>& x, double y0,
-                 int min_points, double* x_at_y0);
+                 int min_points, double* x_at_y0, double* scatter_px = nullptr);
 
 // A soft prior on the centre (e.g. the cloud's), for views that barely fix the stem's depth:
 // rays from a short arc of the arm leave the circle free to slide along the line of sight.

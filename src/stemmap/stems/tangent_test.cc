@@ -95,9 +95,16 @@ TEST(Tangent, EdgeLineIgnoresStrayBands) {
   }
   x[2] += 25;
   x[11] -= 14;
-  double x0 = 0;
-  ASSERT_TRUE(FitEdgeLine(y, x, 463, 8, &x0));
+  double x0 = 0, scatter_px = 0;
+  ASSERT_TRUE(FitEdgeLine(y, x, 463, 8, &x0, &scatter_px));
   EXPECT_NEAR(x0, 700.0, 0.3);
+  // The bands' scatter about the line is their noise's, whatever the stray bands.
+  EXPECT_NEAR(scatter_px, 0.3, 0.15);
+  // A leaf clump's outline: jagged by several pixels from band to band.
+  std::vector<double> jagged(x.size());
+  for (size_t i = 0; i < x.size(); ++i) jagged[i] = 700 + rng.Normal(0, 4.0);
+  ASSERT_TRUE(FitEdgeLine(y, jagged, 463, 8, &x0, &scatter_px));
+  EXPECT_GT(scatter_px, 2.0);
   // Too few points, or a line far from vertical, is no silhouette.
   EXPECT_FALSE(FitEdgeLine(y, x, 463, 16, &x0));
   std::vector<double> slanted(x.size());

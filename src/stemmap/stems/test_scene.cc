@@ -6,9 +6,41 @@
 #include "stemmap/core/noise.h"
 
 namespace stemmap::stems {
+namespace {
+
+const ValueNoise& LeafNoise() {
+  static const ValueNoise noise(11);
+  return noise;
+}
+
+}  // namespace
+
+double HitLeafClump(const LeafClump& clump, const Eigen::Vector3d& origin,
+                    const Eigen::Vector3d& dir) {
+  // The ellipsoid scaled to the unit sphere: the ray's point at t is os + t ds there.
+  const Eigen::Vector3d inv = clump.radii_m.cwiseInverse();
+  const Eigen::Vector3d os = (origin - clump.centre).cwiseProduct(inv);
+  const Eigen::Vector3d ds = dir.cwiseProduct(inv);
+  const double a = ds.squaredNorm(), b = os.dot(ds), c = os.squaredNorm() - 1.0;
+  const double disc = b * b - a * c;
+  if (disc <= 0) return -1;
+  const double t0 = std::max((-b - std::sqrt(disc)) / a, 1e-3);
+  const double t1 = (-b + std::sqrt(disc)) / a;
+  const ValueNoise& leaf = LeafNoise();
+  const double threshold = 1.05 - 0.6 * clump.density;
+  // Steps of 1.5 cm through leaves about 5 cm across.
+  for (double t = t0; t < t1; t += 0.015) {
+    const Eigen::Vector3d p = origin + t * dir;
+    const double centre = 0.6 * (1.0 - (os + t * ds).norm());
+    const double v = leaf.Noise3(p.x() * 18.0, p.y() * 18.0, p.z() * 18.0) + centre - 0.2;
+    if (v > threshold) return t;
+  }
+  return -1;
+}
 
 RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
-                         bool sunlit, Texture texture, const PinholeCamera& camera) {
+                         bool sunlit, Texture texture, const PinholeCamera& camera,
+                         const std::vector<LeafClump>& clumps) {
   RenderedStem r;
   r.camera = camera;
   const ValueNoise noise(7);
@@ -45,6 +77,16 @@ RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool texture
           if (texture == Texture::kLimbShaded && facing < std::cos(50 * M_PI / 180)) luma -= 60;
           if (sunlit)
             luma = 70 + 130 * std::sqrt(std::max(0.0, hit.normalized().y())) + 0.4 * (luma - 80);
+        }
+        // Leaves in front of every stem (distances along the unit ray, `nearest` along `ray`).
+        const double ray_norm = ray.norm();
+        for (const LeafClump& clump : clumps) {
+          const Eigen::Vector3d o = world_from_cam.translation, d = ray / ray_norm;
+          const double t = HitLeafClump(clump, o, d);
+          if (t < 0 || t / ray_norm >= nearest) continue;
+          nearest = t / ray_norm;
+          const Eigen::Vector3d p = o + t * d;
+          luma = 70 + 30 * LeafNoise().Noise3(p.x() * 40.0, p.y() * 40.0, p.z() * 40.0);
         }
         if (nearest > 1e8 && textured_background) {
           const double az = std::atan2(u.y(), u.x());

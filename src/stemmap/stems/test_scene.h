@@ -25,14 +25,31 @@ struct RenderedStem {
 // half-width in every view).
 enum class Texture { kRegular, kIrregular, kPlainBark, kLimbShaded };
 
+// A sapling's leaf clump: an ellipsoid (centre and semi-axes, plot frame, m) of leaves a few
+// centimetres across with leaf-sized holes, denser towards its centre (density: about the share
+// of its volume that is leaves), as the simulator's saplings carry.
+struct LeafClump {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Eigen::Vector3d radii_m = Eigen::Vector3d::Constant(0.4);
+  double density = 0.4;
+};
+
+// How far along the ray from `origin` in the unit direction `dir` it meets the clump's first
+// leaf, or -1 where it passes through.
+double HitLeafClump(const LeafClump& clump, const Eigen::Vector3d& origin,
+                    const Eigen::Vector3d& dir);
+
 // Stems as (x, y, radius); the nearest one a pixel's ray meets is seen, each with its own bark,
 // in front of either a plain sky or a textured far background. With `sunlit`, sun from +y lights
 // the stems' left sides (as seen looking along +x) brighter than a plain grey sky, their middles
 // darker.
 // `camera`: the images' (the 640-px default is quick to render; the pipeline's working images are
 // 960 px wide, the size the silhouette options are set for).
+// `clumps`: leaf clumps, seen where they lie nearer than the stems, dark green leaves of varying
+// shade.
 RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
                          bool sunlit = false, Texture texture = Texture::kRegular,
-                         const PinholeCamera& camera = PinholeCamera::FromHfov(640, 360, 67.0));
+                         const PinholeCamera& camera = PinholeCamera::FromHfov(640, 360, 67.0),
+                         const std::vector<LeafClump>& clumps = {});
 
 }  // namespace stemmap::stems
