@@ -333,6 +333,20 @@ TEST(MeasureTrees, AStemBehindASaplingsCrownIsListed) {
   }
 }
 
+// A stem with a sapling's leafy crown against one side at breast height (the sapling 0.45-0.6 m
+// beside it, the crown 0.6 m across, in front of it or behind it as seen from the plot centre):
+// the leaves' jagged edges replace that side's silhouette in many views, the other side stays
+// straight, and the stem is listed with its width.
+TEST(MeasureTrees, AStemWithACrownAgainstOneSideIsListed) {
+  const Eigen::Vector3d stem(5.5, 0.0, 0.13);
+  for (const Eigen::Vector2d& beside : {Eigen::Vector2d(5.3, 0.45), Eigen::Vector2d(5.8, -0.5)}) {
+    SCOPED_TRACE(::testing::Message() << "sapling at " << beside.transpose());
+    const Eigen::Vector3d sapling(beside.x(), beside.y(), 0.015);
+    const LeafClump crown{{beside.x(), beside.y(), 1.4}, {0.3, 0.3, 0.25}, 0.35};
+    ExpectListed({stem}, Measure(MakeScene({stem, sapling}, {crown})));
+  }
+}
+
 TEST(MeasureTrees, NoStemsInAnEmptyPlotAndMissingInputsAreRefused) {
   const Scene s = MakeScene({});
   EXPECT_TRUE(Measure(s).trees.empty());
