@@ -295,8 +295,11 @@ bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m) {
 }
 
 bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth& cloud_bark) {
+  // Or, where nearer stems hide a side in many views (which cannot show both), half of the
+  // others: a sapling's crown seen past nearer stems shows both in a few views among many.
   const bool two_sided_often =
-      fit.two_sided_views >= std::max(3, fit.tried_views / 4) && fit.rays > 0;
+      fit.rays > 0 && fit.two_sided_views >= 3 &&
+      (fit.two_sided_views >= fit.tried_views / 4 || 2 * fit.two_sided_views >= fit.open_views);
   return !fit.ok && !part.weak_support && two_sided_often && cloud_bark.ok &&
          !cloud_bark.at_search_end;
 }
@@ -444,8 +447,10 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
           MeasureBarkDepth(bark_options, topt, views, s.centre_xy, r0, breast_z);
       if (BarkConfirmsCloud(s, f, cloud_bark)) {
         spdlog::debug(
-            "stems: ({:.2f}, {:.2f}) kept on its cloud: the bark lines up {:+.3f} m off it",
-            s.centre_xy.x(), s.centre_xy.y(), cloud_bark.shift_m);
+            "stems: ({:.2f}, {:.2f}) kept on its cloud: the bark lines up {:+.3f} m off it (ncc "
+            "{:.2f}); both sides in {} of {} views, {} where no nearer stem hid a side",
+            s.centre_xy.x(), s.centre_xy.y(), cloud_bark.shift_m, cloud_bark.peak_ncc,
+            f.two_sided_views, f.tried_views, f.open_views);
         s.centre_xy += cloud_bark.shift_m * s.centre_xy.normalized();
         verdict = SilhouetteVerdict::kKeepCloud;
       }

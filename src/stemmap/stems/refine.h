@@ -43,8 +43,9 @@ double JaggedSilhouetteShare(const MeasureOptions& o, const TangentFit& fit, dou
 bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m);
 
 // Whether a part whose silhouette fit failed is a stem all the same, kept on its cloud: its
-// silhouettes were found on both sides in a quarter of the views tried (a trunk's two edges; a
-// shrub or sapling seldom shows them so), it was not weakly supported, and the views warped
+// silhouettes were found on both sides in three views at least and a quarter of the views tried,
+// or half of those where no nearer stem hid a side (a trunk's two edges; a shrub or sapling
+// seldom shows them so), it was not weakly supported, and the views warped
 // through its own cloud circle line up (`cloud_bark` ok and not at the end of its search).
 bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth& cloud_bark);
 

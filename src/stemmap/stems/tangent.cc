@@ -267,12 +267,13 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     std::vector<Eigen::Vector2d> normals, origins;
     std::vector<double> headings;
     std::vector<TangentFit::Ray> silhouettes;
-    int views = 0, tried = 0, hidden_sides = 0, two_sided = 0;
+    int views = 0, tried = 0, hidden_sides = 0, open_views = 0, two_sided = 0;
     std::array<int, 2> side_rays = {0, 0};
     for (int k = 0; k < n_views; ++k) {
       const ViewRays& w = per_view[k];
       tried += w.tried;
       hidden_sides += w.hidden_sides;
+      open_views += w.tried && w.hidden_sides == 0;
       for (int s = 0; s < 2; ++s) {
         if (!w.found[s]) continue;
         // One line per silhouette for bench/silhouette_edges.py (image left = side 0).
@@ -343,6 +344,7 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     fit.rays = static_cast<int>(normals.size());
     fit.views = views;
     fit.hidden_sides = hidden_sides;
+    fit.open_views = open_views;
     fit.tried_views = tried;
     fit.two_sided_views = two_sided;
     fit.silhouettes = std::move(silhouettes);

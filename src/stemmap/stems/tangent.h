@@ -174,6 +174,7 @@ struct TangentFit {
   int rays = 0, views = 0;
   int tried_views = 0;      // keyframes that should see the stem
   int hidden_sides = 0;     // silhouette sides (two a view) left out beside a nearer stem
+  int open_views = 0;       // tried views where no nearer stem hid a side
   int two_sided_views = 0;  // views that gave both silhouettes
   double arc_deg = 0.0;     // spread of the viewing directions used
   // The silhouettes of the last round: one ray each (keyframe, side 0 left / 1 right, the ray's

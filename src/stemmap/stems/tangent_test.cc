@@ -189,6 +189,7 @@ TEST(Tangent, FitsARenderedStem) {
     EXPECT_LT((fit.centre - centre).norm(), 0.06);
     EXPECT_GT(fit.views, 10);
     EXPECT_EQ(fit.hidden_sides, 0);
+    EXPECT_EQ(fit.open_views, fit.tried_views);
   }
 }
 
@@ -290,6 +291,9 @@ TEST(Tangent, LeavesOutSidesBesideANearerStem) {
   EXPECT_LT((fit.centre - centre).norm(), 0.08);
   EXPECT_GT(fit.hidden_sides, 0);
   EXPECT_LT(fit.hidden_sides, 2 * fit.tried_views);
+  // Each view with a side hidden is not open; at most two sides hidden in each.
+  EXPECT_LE(fit.open_views, fit.tried_views - (fit.hidden_sides + 1) / 2);
+  EXPECT_GE(fit.open_views, fit.tried_views - fit.hidden_sides);
 }
 
 // A stem straight behind a nearer one: from one end of the arc only its left side shows beside
