@@ -53,7 +53,7 @@ int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems) {
 }
 
 SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, const TangentFit& f,
-                                     double px_m, const FitChecks& checks) {
+                                     double px_m, bool bark_lines_up) {
   // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
   // neighbour): keep the cloud's estimate and say so. A stem partly hidden from the stereo
   // pairs is wider than its points: silhouettes on both sides in several views that agree to
@@ -62,15 +62,11 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   const bool loose_narrower = f.radius_m < r0 && f.rms_m > o.loose_fit_rms_px * px_m;
   const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01 && !loose_narrower;
   const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
-  // Sides seen apart bound the width from both sides as two-sided views do, and confirm a stem
-  // the cloud saw only a sliver of behind the nearer one.
-  const bool apart = f.ok && checks.sides_seen_apart;
   const bool wider_two_sided =
-      (two_sided || apart) && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
-  const bool bark_lines_up = checks.bark_lines_up;
+      two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
   const bool whole_on_bark = bark_lines_up && 2 * f.two_sided_views >= f.tried_views &&
                              f.rms_m < o.weak_on_bark_max_rms_px * px_m;
-  const bool confirmed = !s.weak_support || two_sided || whole_on_bark || apart;
+  const bool confirmed = !s.weak_support || two_sided || whole_on_bark;
   // Both sides in most views, agreeing to a pixel, narrower than the points: the cloud took in
   // what stands beside the stem (a shrub, a sapling, a sapling's leaves). A furrow does not stay
   // tangent across views. Where the bark lines up on the fit, a share of the views will do: a
@@ -82,7 +78,7 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   // A fit from one side that came out wider than the points rests on nothing that can check it
   // (an occluder's edge, the slack of a one-sided circle); a confirmed stem keeps the cloud's
   // width.
-  const bool one_sided = f.two_sided_views < 3 && !apart;
+  const bool one_sided = f.two_sided_views < 3;
   if (f.ok && confirmed && one_sided && f.radius_m > o.one_sided_max_over_cloud * r0) {
     // Unless it stays tangent to one circle across views to about a pixel, on a part the cloud
     // saw as a real stem: then a nearer stem hid the rest of it from the stereo pairs, and the
@@ -432,16 +428,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
                   bark.peak_ncc,
                   bark.ok ? bark.shift_m : 0.0,
                   JaggedSilhouetteShare(o, f, px_m)};
-    // Stereo smears a stem toward what stands behind it on the same bearing, and the smear's
-    // silhouettes are the nearer stem's: a part straight behind a listed stem (its centre within
-    // that stem's width seen from the plot centre) stands only on silhouettes of its own.
-    const bool behind_nearer = InShadowOfNearerStem(kept, f.ok ? f.centre : s.centre_xy);
-    // Straight behind a nearer stem, each side in several views of its own confirms a stem as
-    // both sides in the same views do (SidesSeenApart): the nearer stem hides one side from each
-    // end of the arm. Elsewhere, a stem shows both sides in the same views, and sides only ever
-    // seen apart are the edges of two things.
-    const bool seen_apart = behind_nearer && SidesSeenApart(topt, f, px_m);
-    SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m, {bark.ok, seen_apart});
+    SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m, bark.ok);
     if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
       const BarkDepth cloud_bark =
           MeasureBarkDepth(bark_options, topt, views, s.centre_xy, r0, breast_z);
@@ -458,9 +445,16 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == "tangent") {
       s.flags.Set(f.ok && f.two_sided_views < 3 ? StemFlag::kOneSided : StemFlag::kNoSilhouette);
     }
+    // Stereo smears a stem toward what stands behind it on the same bearing, and the smear's
+    // silhouettes are the nearer stem's: a part straight behind a listed stem (its centre within
+    // that stem's width seen from the plot centre) stands only on silhouettes of its own.
+    const bool behind_nearer = InShadowOfNearerStem(kept, f.ok ? f.centre : s.centre_xy);
     // A core stands alone only on clean silhouettes: both sides in a quarter of its views, on
-    // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges), or its
-    // sides seen apart.
+    // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges). Straight
+    // behind a nearer stem, each side in several views of its own will do (SidesSeenApart): the
+    // nearer stem hides one side from each end of the arm. Elsewhere, a stem shows both sides
+    // in the same views, and sides only ever seen apart are the edges of two things.
+    const bool seen_apart = behind_nearer && SidesSeenApart(topt, f, px_m);
     const bool clean =
         (f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m) || seen_apart;
     const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;

@@ -23,17 +23,11 @@ enum class SilhouetteVerdict {
   kKeepCloud,  // implausible: the cloud's estimate stays, flagged no_silhouette
   kDrop,       // implausible for a part that needed confirming: not a stem
 };
-// What else was learnt of a fit before its verdict.
-struct FitChecks {
-  bool bark_lines_up = false;  // the views warped through its circle line up (BarkDepth::ok)
-  // Straight behind a listed stem, each side shows in views of its own on one circle
-  // (SidesSeenApart): the nearer stem hides one side from each end of the arm.
-  bool sides_seen_apart = false;
-};
-// `px_m` is one pixel's footprint at the stem's distance.
+// `px_m` is one pixel's footprint at the stem's distance; `bark_lines_up`: the views warped
+// through the fitted circle line up on its bark (BarkDepth::ok).
 SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& stem,
                                      const TangentFit& fit, double px_m,
-                                     const FitChecks& checks = {});
+                                     bool bark_lines_up = false);
 
 // The share of a fit's silhouettes whose bands scatter about their lines by more than
 // MeasureOptions::leafy_edge_scatter_m and leafy_edge_scatter_px (px_m: metres a pixel spans at

@@ -737,7 +737,7 @@ TEST(JudgeSilhouetteFit, AWeakPartIsConfirmedByAWholeOutlineWhereItsBarkLinesUp)
             bark && 2 * two_sided >= 20 && rms_px < o.weak_on_bark_max_rms_px;
         const SilhouetteVerdict want =
             tight || whole_on_bark ? SilhouetteVerdict::kUse : SilhouetteVerdict::kDrop;
-        EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, {.bark_lines_up = bark}), want)
+        EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, bark), want)
             << rms_px << " px, two-sided in " << two_sided << " of 20, bark " << bark;
       }
     }
@@ -761,7 +761,7 @@ TEST(JudgeSilhouetteFit, ANarrowerFitWhoseBarkLinesUpNeedsFewerTwoSidedViews) {
         const bool used = two_sided >= share * 36;
         const SilhouetteVerdict want =
             used ? SilhouetteVerdict::kUse : SilhouetteVerdict::kKeepCloud;
-        EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, {.bark_lines_up = bark}), want)
+        EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, bark), want)
             << two_sided << " of 36 two-sided, bark " << (bark ? "lines up" : "does not")
             << (smeared ? ", smeared" : "");
       }
@@ -785,33 +785,6 @@ TEST(JudgeSilhouetteFit, AWeaklySupportedPartNeedsBothSidesInSeveralViews) {
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
   c.fit.two_sided_views = 2;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kDrop);
-}
-
-// Straight behind a nearer stem the cloud sees a sliver of a stem (weakly supported, narrow),
-// and the nearer stem hides one side from each end of the arm: both sides seldom show in one
-// view. Sides seen apart (each in several views, on one circle) confirm it and give its width,
-// up to the widest start (wider, it caught something else); without them it is dropped. Swept
-// over two-sided views and the fit's width against the sliver's.
-TEST(JudgeSilhouetteFit, SidesSeenApartConfirmASliverBehindANearerStem) {
-  const MeasureOptions o;
-  for (const int two_sided : {0, 2}) {
-    for (const double radius_m : {0.10, 0.142, 0.18, 0.2}) {
-      for (const bool apart : {false, true}) {
-        Case c;
-        c.stem.weak_support = true;
-        c.stem.dbh_slice_m = 0.168;  // a sliver of a 25-cm stem
-        c.fit.tried_views = 23;
-        c.fit.views = 10;
-        c.fit.two_sided_views = two_sided;
-        c.fit.radius_m = radius_m;
-        const bool within_widest = radius_m < o.tangent.WidestFitScale() * 0.084;
-        const SilhouetteVerdict want =
-            apart && within_widest ? SilhouetteVerdict::kUse : SilhouetteVerdict::kDrop;
-        EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, {.sides_seen_apart = apart}), want)
-            << two_sided << " two-sided, r " << radius_m << ", apart " << apart;
-      }
-    }
-  }
 }
 
 TEST(JudgeSilhouetteFit, WiderTwoSidedSilhouettesOutrankTheCloud) {
