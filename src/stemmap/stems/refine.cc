@@ -291,8 +291,9 @@ bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m) {
 }
 
 bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth& cloud_bark) {
-  // Or, where nearer stems hide a side in many views (which cannot show both), half of the
-  // others: a sapling's crown seen past nearer stems shows both in a few views among many.
+  // Both sides in three views at least and a quarter of them; or, where nearer stems hide a side
+  // in many views (which cannot show both), half of the others: a sapling's crown seen past
+  // nearer stems shows both in a few views among many.
   const bool two_sided_often =
       fit.rays > 0 && fit.two_sided_views >= 3 &&
       (fit.two_sided_views >= fit.tried_views / 4 || 2 * fit.two_sided_views >= fit.open_views);
