@@ -70,6 +70,10 @@ void MeasureOptions::Check() const {
   if (!(leafy_edge_share >= 0 && leafy_edge_share <= 1)) {
     throw InputError("the share of jagged silhouettes that makes a fit leaves must lie in [0, 1]");
   }
+  if (sides_past_nearer_min_views < 0) {
+    throw InputError(
+        "the views a stem behind a nearer one shows its sides in must not be negative");
+  }
   if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
     throw InputError(
         "the share of a part's width below which its cores are tried must lie in [0, 1]");

@@ -103,6 +103,13 @@ struct MeasureOptions {
   double leafy_edge_scatter_m = 0.01;
   double leafy_edge_scatter_px = 1.2;
   double leafy_edge_share = 0.67;
+  // A part straight behind a listed stem, on firm support, stands without a fit where its sides
+  // show, one at a time, where its cloud's circle predicts them in at least this many views
+  // (sides within reach of the nearer stem's outline are not searched): the nearer stem hides
+  // all but one side from each end of the arm where the stem is in the picture, too few rays to
+  // fit a circle to. More than TangentOptions::min_views_each_side, which asks both sides for
+  // that many. Kept on its cloud, flagged occluded. 0: off.
+  int sides_past_nearer_min_views = 6;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -114,7 +121,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
     narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
     outline_over_bark_cloud_share, weak_on_bark_max_rms_px, leafy_edge_scatter_m,
-    leafy_edge_scatter_px, leafy_edge_share)
+    leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

@@ -113,7 +113,8 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   std::vector<Stem> larger = std::exchange(part.larger_cloud_part, {});
   const double part_dbh_m = 2 * CloudRadius(part);
   const bool mixed_part_core = part.mixed_part_core;
-  auto [verdict, s, clean, whole, agrees, sharp, seen_apart] = refine(std::move(part));
+  auto [verdict, s, clean, whole, agrees, sharp, seen_apart, sides_past_nearer] =
+      refine(std::move(part));
   // A core of a part no stem as a whole stands, as any part's core, on clean silhouettes only.
   if (mixed_part_core && verdict == SilhouetteVerdict::kUse && !clean) {
     spdlog::debug(
@@ -177,6 +178,21 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   }
   out.fitted = out.from_cores = from_cores;
   if (from_cores > 0) return out;
+  // Kept on its cloud behind a nearer stem, which hid part of it from the stereo pairs, its
+  // width is a lower bound: the larger cloud's part, kept so too or fitted, stands in where it
+  // is wider.
+  if (sides_past_nearer && !larger.empty()) {
+    RefinedStem r = refine(std::move(larger.front()));
+    larger.clear();
+    const bool stands = r.verdict == SilhouetteVerdict::kUse || r.sides_past_nearer;
+    if (stands && r.stem.dbh_m > s.dbh_m) {
+      spdlog::debug(
+          "stems: part ({:.2f}, {:.2f}) behind a nearer stem widened by the larger "
+          "cloud's: dbh {:.3f} over {:.3f}",
+          s.centre_xy.x(), s.centre_xy.y(), r.stem.dbh_m, s.dbh_m);
+      s = std::move(r.stem);
+    }
+  }
   if (verdict == SilhouetteVerdict::kKeepCloud) {
     kept->push_back(std::move(s));
     return out;
@@ -188,7 +204,7 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
     RefinedStem r = refine(std::move(larger.front()));
     const bool stands = r.verdict == SilhouetteVerdict::kUse ||
                         (r.verdict == SilhouetteVerdict::kKeepCloud && r.agrees_with_cloud);
-    if (stands && r.clean) {
+    if ((stands && r.clean) || r.sides_past_nearer) {
       spdlog::debug("stems: part ({:.2f}, {:.2f}) replaced by the larger cloud's", s.centre_xy.x(),
                     s.centre_xy.y());
       kept->push_back(std::move(r.stem));
@@ -269,17 +285,42 @@ bool StandsOnItsOwnSilhouettes(const TangentOptions& o, const TangentFit& f, dou
          SidesSeenApart(o, f, px_m);
 }
 
-bool InShadowOfNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& centre) {
+namespace {
+
+// The angular half-width, from the plot centre, of the widest of the `nearer` stems that `centre`
+// lies straight behind (farther than its far side, within its angular width); 0 if none.
+double WidestNearerStemAhead(std::span<const Stem> nearer, const Eigen::Vector2d& centre) {
   const double d = centre.norm();
+  double widest = 0.0;
   for (const Stem& k : nearer) {
     const double dk = k.centre_xy.norm(), rk = 0.5 * k.dbh_m;
     if (dk + rk >= d || dk <= rk) continue;
     const double apart = std::abs(std::remainder(
         std::atan2(centre.y(), centre.x()) - std::atan2(k.centre_xy.y(), k.centre_xy.x()),
         2 * M_PI));
-    if (apart < std::asin(rk / dk)) return true;
+    const double half_width = std::asin(rk / dk);
+    if (apart < half_width) widest = std::max(widest, half_width);
   }
-  return false;
+  return widest;
+}
+
+}  // namespace
+
+bool InShadowOfNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& centre) {
+  return WidestNearerStemAhead(nearer, centre) > 0;
+}
+
+bool NoWiderThanANearerStemItIsBehind(std::span<const Stem> nearer, const Eigen::Vector2d& centre,
+                                      double radius_m) {
+  const double d = centre.norm(), widest = WidestNearerStemAhead(nearer, centre);
+  return widest > 0 && d > radius_m && std::asin(radius_m / d) <= widest;
+}
+
+bool ShowsSidesPastNearerStem(const MeasureOptions& o, const Stem& part, double radius_m,
+                              std::span<const Stem> nearer, const std::array<int, 2>& side_views) {
+  return o.sides_past_nearer_min_views > 0 && !part.weak_support &&
+         NoWiderThanANearerStemItIsBehind(nearer, part.centre_xy, radius_m) &&
+         side_views[0] + side_views[1] >= o.sides_past_nearer_min_views;
 }
 
 double JaggedSilhouetteShare(const MeasureOptions& o, const TangentFit& fit, double px_m) {
@@ -470,6 +511,21 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
     }
     if (behind_nearer && !StandsOnItsOwnSilhouettes(o.tangent, f, px_m)) {
+      const bool may_show = o.sides_past_nearer_min_views > 0 && !s.weak_support &&
+                            NoWiderThanANearerStemItIsBehind(kept, s.centre_xy, r0);
+      const std::array<int, 2> side_views =
+          may_show ? SideViewsAt(topt, views, s.centre_xy, r0, breast_z) : std::array<int, 2>{0, 0};
+      if (ShowsSidesPastNearerStem(o, s, r0, kept, side_views)) {
+        spdlog::debug(
+            "stems: ({:.2f}, {:.2f}) kept on its cloud: straight behind a listed stem, its sides "
+            "show one at a time ({} and {} views)",
+            s.centre_xy.x(), s.centre_xy.y(), side_views[0], side_views[1]);
+        s.flags.Set(StemFlag::kOccluded);
+        if (o.stems.dbh_method == "tangent") s.flags.Set(StemFlag::kNoSilhouette);
+        RefinedStem kept_on_cloud{SilhouetteVerdict::kKeepCloud, std::move(s)};
+        kept_on_cloud.sides_past_nearer = true;
+        return kept_on_cloud;
+      }
       spdlog::debug("stems: ({:.2f}, {:.2f}) dropped: straight behind a listed stem, no clean fit",
                     s.centre_xy.x(), s.centre_xy.y());
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};

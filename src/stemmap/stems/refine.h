@@ -3,6 +3,7 @@
 // The silhouettes' verdicts on the cloud's parts: what each part becomes (a stem its silhouettes
 // place, its cores, its cloud's stem, or nothing) and the tangent-ray refinement that asks them.
 #include <Eigen/Core>
+#include <array>
 #include <functional>
 #include <opencv2/core.hpp>
 #include <span>
@@ -62,6 +63,9 @@ struct RefinedStem {
   bool sharp = false;
   // Straight behind a listed stem, each side in views of its own on one circle (SidesSeenApart).
   bool seen_apart = false;
+  // Straight behind a listed stem, kept on its cloud where its sides showed one at a time
+  // (ShowsSidesPastNearerStem).
+  bool sides_past_nearer = false;
 };
 struct PartOutcome {
   int fitted = 0;      // stems placed by their silhouettes
@@ -109,6 +113,21 @@ bool InShadowOfNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& c
 // Whether a fit rests on silhouettes of its stem's own, not on a nearer stem's edges (`px_m`: one
 // pixel's footprint at the stem).
 bool StandsOnItsOwnSilhouettes(const TangentOptions& o, const TangentFit& fit, double px_m);
+
+// Whether, seen from the plot centre, the circle (centre, radius_m) lies behind one of the
+// `nearer` stems and is no wider than it: the nearer stem's outline covers it but for a side at a
+// time in the views from along the arm. (One wider shows both sides past it in the same views.)
+bool NoWiderThanANearerStemItIsBehind(std::span<const Stem> nearer, const Eigen::Vector2d& centre,
+                                      double radius_m);
+
+// Whether a part straight behind a listed stem, with no fit that stands on its own silhouettes,
+// is a stem the nearer one hides but for one side at a time: not weakly supported, its cloud's
+// circle (radius_m) no wider than one of the `nearer` stems it is behind, and its sides showed
+// where that circle predicts them (`side_views`, SideViewsAt) in at least
+// MeasureOptions::sides_past_nearer_min_views views. A smear of the nearer stem's points shows
+// none there: its predicted sides lie along the nearer stem's outline, where none is searched.
+bool ShowsSidesPastNearerStem(const MeasureOptions& o, const Stem& part, double radius_m,
+                              std::span<const Stem> nearer, const std::array<int, 2>& side_views);
 
 // The tangent fit checked on the bark: its distance from the bark (returned), and a fit whose bark
 // lines up at no distance (correlation under min_surface_ncc over enough pairs) or best at the end

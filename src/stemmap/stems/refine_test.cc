@@ -131,7 +131,7 @@ TEST(StandsOnItsOwnSilhouettes, EachSideInViewsOfItsOwn) {
   for (int k = 0; k < 10; ++k) {
     const int side = k < 5 ? 0 : 1;
     f.silhouettes.push_back(
-        {10 * side + k, side, Eigen::Vector2d::UnitY(), Eigen::Vector2d::Zero(), 0.0});
+        {10 * side + k, side, Eigen::Vector2d::UnitY(), Eigen::Vector2d::Zero(), 0.0, 0.0});
   }
   f.rays = static_cast<int>(f.silhouettes.size());
   f.views = 10;
@@ -436,6 +436,33 @@ TEST(BarkConfirmsCloud, ViewsWhereANearerStemHidesASideAreNotCounted) {
   EXPECT_FALSE(BarkConfirmsCloud(part, f, bark));
 }
 
+// Straight behind a listed stem and no wider than it from the plot centre, sides shown one at a
+// time keep a part on firm support on its cloud from sides_past_nearer_min_views views on (either
+// side counts: each end of the arm shows its own); a weakly supported part, a part wider than the
+// stem it is behind (a smear of that stem's points, whose sides would show past it together), or
+// the rule off, never.
+TEST(ShowsSidesPastNearerStem, CountsTheViewsOfEitherSideOnAPartOnFirmSupport) {
+  MeasureOptions o;
+  Stem nearer;
+  nearer.centre_xy = {3.0, 0.0};
+  nearer.dbh_m = 0.46;  // 4.4 degrees wide each side of its bearing
+  const std::vector<Stem> listed = {nearer};
+  Stem part;
+  part.centre_xy = {7.0, 0.1};
+  const double r = 0.2;
+  const int n = o.sides_past_nearer_min_views;
+  EXPECT_TRUE(ShowsSidesPastNearerStem(o, part, r, listed, {n, 0}));
+  EXPECT_TRUE(ShowsSidesPastNearerStem(o, part, r, listed, {n - 2, 2}));
+  EXPECT_FALSE(ShowsSidesPastNearerStem(o, part, r, listed, {n - 1, 0}));
+  EXPECT_FALSE(ShowsSidesPastNearerStem(o, part, 0.6, listed, {n, 0}));  // 4.9 degrees
+  EXPECT_FALSE(ShowsSidesPastNearerStem(o, part, r, {}, {n, 0}));
+  part.weak_support = true;
+  EXPECT_FALSE(ShowsSidesPastNearerStem(o, part, r, listed, {n, n}));
+  part.weak_support = false;
+  o.sides_past_nearer_min_views = 0;
+  EXPECT_FALSE(ShowsSidesPastNearerStem(o, part, r, listed, {20, 20}));
+}
+
 TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
   // A 27.8-cm stem, and a 17.8-cm fit that moved 0.47 m from its points to touch it; a third
   // stem 0.46 m from the first, and a far one that moved as much, stay.
@@ -635,7 +662,11 @@ TEST(LeafyOutline, TwoThirdsOfTheSilhouettesJaggedAreLeaves) {
   auto fit_with = [](std::vector<double> scatter_m) {
     TangentFit f;
     f.ok = true;
-    for (const double m : scatter_m) f.silhouettes.push_back({.edge_scatter_m = m});
+    for (const double m : scatter_m) {
+      TangentFit::Ray ray;
+      ray.edge_scatter_m = m;
+      f.silhouettes.push_back(ray);
+    }
     return f;
   };
   const double px_m = 0.004;  // a stem 6 m out at 1 500 px focal length

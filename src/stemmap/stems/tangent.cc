@@ -251,6 +251,23 @@ ViewRays MeasureView(const TangentOptions& o, const TangentViews& v, const Eigen
   return out;
 }
 
+}  // namespace
+
+std::array<int, 2> SideViewsAt(const TangentOptions& o, const TangentViews& v,
+                               const Eigen::Vector2d& c, double r, double breast_z) {
+  const int n_views = static_cast<int>(v.keyframes->size());
+  std::vector<ViewRays> per_view(n_views);
+#pragma omp parallel for schedule(dynamic)
+  for (int k = 0; k < n_views; ++k) per_view[k] = MeasureView(o, v, c, r, breast_z, k);
+  std::array<int, 2> views = {0, 0};
+  for (const ViewRays& w : per_view) {
+    for (int s = 0; s < 2; ++s) views[s] += w.found[s];
+  }
+  return views;
+}
+
+namespace {
+
 TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
                               const Eigen::Vector2d& centre0, double radius0, double r_start,
                               double breast_z) {

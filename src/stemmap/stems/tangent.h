@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <functional>
 #include <nlohmann/json.hpp>
@@ -181,7 +182,7 @@ struct TangentFit {
   // normal toward the stem, the camera centre, the heading from the stem to the camera).
   struct Ray {
     int keyframe = 0, side = 0;
-    Eigen::Vector2d normal, origin;
+    Eigen::Vector2d normal = Eigen::Vector2d::Zero(), origin = Eigen::Vector2d::Zero();
     double heading = 0;
     // How far the silhouette's bands scatter about its line (robust, metres at the stem): a
     // trunk's outline is straight over the bands, a leaf clump's jagged.
@@ -201,6 +202,13 @@ struct TangentFit {
 // circle behind it). Its depth along the line of sight is held less firmly than by two-sided
 // views; its width, by the angle between the two sides' rays, far more.
 bool SidesSeenApart(const TangentOptions& o, const TangentFit& fit, double px_m);
+
+// Where the circle (c, r) predicts its silhouettes at breast height, how many views show each
+// side (image left = 0) as a clean edge line, without fitting a circle to them: the test of a
+// stem that nearer stems let show one side at a time. Sides a nearer stem's outline reaches
+// (`views.occluders`) are not searched.
+std::array<int, 2> SideViewsAt(const TangentOptions& o, const TangentViews& views,
+                               const Eigen::Vector2d& c, double r, double breast_z);
 
 // One circle for the silhouettes of several fits of one stem (each silhouette once): reweighted
 // from each fit's circle in turn, the circle tangent to the most silhouettes. `pooled` is `chosen`

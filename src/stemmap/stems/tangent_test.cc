@@ -193,6 +193,23 @@ TEST(Tangent, FitsARenderedStem) {
   }
 }
 
+// Each side of a stem in plain view shows where its circle predicts it in the views the fit used;
+// against a plain sky, a circle where no stem stands shows none.
+TEST(Tangent, SideViewsAtCountsEachSideWhereTheCirclePredictsIt) {
+  const Eigen::Vector2d centre(6.0, 0.3);
+  const double radius = 0.15;
+  const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}}, false);
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+  const TangentOptions o = TangentOptions().ForImageScale(640.0 / 960.0);
+  const TangentFit fit = FitTangentRays(o, views, centre, radius, 1.37);
+  ASSERT_TRUE(fit.ok);
+  const std::array<int, 2> sides = SideViewsAt(o, views, centre, radius, 1.37);
+  EXPECT_GE(sides[0], fit.views - 1);
+  EXPECT_GE(sides[1], fit.views - 1);
+  const Eigen::Vector2d beside = centre + Eigen::Vector2d(0.0, 1.0);
+  EXPECT_EQ(SideViewsAt(o, views, beside, radius, 1.37), (std::array<int, 2>{0, 0}));
+}
+
 // A stem the arm passes close by (its bark 0.8 m from the camera), measured a little above the
 // camera (a ground estimate too low, or a stem downhill): seen that close, the bands within
 // 0.35 m of breast height reach beyond the picture's top, and the silhouettes rest on the bands
