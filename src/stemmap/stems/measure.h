@@ -103,12 +103,13 @@ struct MeasureOptions {
   double leafy_edge_scatter_m = 0.01;
   double leafy_edge_scatter_px = 1.2;
   double leafy_edge_share = 0.67;
-  // A part straight behind a listed stem, on firm support, stands without a fit where its sides
-  // show, one at a time, where its cloud's circle predicts them in at least this many views
-  // (sides within reach of the nearer stem's outline are not searched): the nearer stem hides
-  // all but one side from each end of the arm where the stem is in the picture, too few rays to
-  // fit a circle to. More than TangentOptions::min_views_each_side, which asks both sides for
-  // that many. Kept on its cloud, flagged occluded. 0: off.
+  // A part straight behind a listed stem, on firm support and no wider from the plot centre
+  // than that stem, stands without a fit where its sides show, one at a time, where its cloud's
+  // circle predicts them in at least this many views (sides within reach of the nearer stem's
+  // outline are not searched): the nearer stem hides all but one side from each end of the arm
+  // where the stem is in the picture, too few rays to fit a circle to. More than
+  // TangentOptions::min_views_each_side, which asks both sides for that many. Kept on its cloud
+  // (the larger cloud's where that is wider), flagged occluded. 0: off.
   int sides_past_nearer_min_views = 6;
   void Check() const;
 };
