@@ -316,6 +316,32 @@ bool NoWiderThanANearerStemItIsBehind(std::span<const Stem> nearer, const Eigen:
   return widest > 0 && d > radius_m && std::asin(radius_m / d) <= widest;
 }
 
+bool HoldOnFaceBehindNearer(const Stem& part, double radius0, std::span<const Stem> nearer,
+                            const TangentOptions& topt, const TangentViews& views, double breast_z,
+                            double px_m, TangentFit* fit) {
+  const bool one_side_per_view = !fit->ok || fit->two_sided_views < 3;
+  if (!one_side_per_view || part.weak_support || part.face_range_m <= 0 ||
+      !(InShadowOfNearerStem(nearer, part.centre_xy) ||
+        (fit->ok && InShadowOfNearerStem(nearer, fit->centre)))) {
+    return false;
+  }
+  // The widest stem whose face lies face_range_m out that the nearer stems hide from the plot
+  // centre: r / (face + r) = sin(their angular half-width).
+  const double hidden_sin = std::sin(WidestNearerStemAhead(nearer, part.centre_xy));
+  const double max_radius_m = part.face_range_m * hidden_sin / (1 - hidden_sin);
+  TangentFit held = FitSidesOnFace(topt, views, part.centre_xy, radius0, max_radius_m,
+                                   part.face_range_m, breast_z);
+  if (!SidesSeenApart(topt, held, px_m) ||
+      !NoWiderThanANearerStemItIsBehind(nearer, held.centre, held.radius_m)) {
+    return false;
+  }
+  spdlog::debug("stems: ({:.2f}, {:.2f}) held on its face {:.2f} m out: ({:.2f}, {:.2f}) r {:.3f}",
+                part.centre_xy.x(), part.centre_xy.y(), part.face_range_m, held.centre.x(),
+                held.centre.y(), held.radius_m);
+  *fit = std::move(held);
+  return true;
+}
+
 bool ShowsSidesPastNearerStem(const MeasureOptions& o, const Stem& part, double radius_m,
                               std::span<const Stem> nearer, const std::array<int, 2>& side_views) {
   return o.sides_past_nearer_min_views > 0 && !part.weak_support &&
@@ -440,6 +466,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const bool asked =
         last_asked.ok && last_asked.centre == f.centre && last_asked.radius_m == f.radius_m;
     const double px_m = s.centre_xy.norm() / camera.fx;
+    const bool on_face = HoldOnFaceBehindNearer(s, r0, kept, topt, views, breast_z, px_m, &f);
     const TangentFit outline = f;
     const BarkDepth bark =
         CheckFitOnBark(bark_options, topt, views, breast_z, &f, asked ? &last_bark : nullptr);
@@ -451,7 +478,8 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
           f.centre.x(), f.centre.y(), f.radius_m, bark.peak_ncc, f.two_sided_views, f.tried_views);
       f = outline;
     }
-    if (f.ok && !WideFitLinesUpOnBark(o, f, bark, r0)) {
+    // (Not asked of a fit held on its face: the cloud saw a sliver of it, its width no bound.)
+    if (f.ok && !on_face && !WideFitLinesUpOnBark(o, f, bark, r0)) {
       spdlog::debug(
           "stems: ({:.2f}, {:.2f}) fit r {:.3f} over r0 {:.3f}: its bark does not show it "
           "(ncc {:.2f}, {} pairs)",
@@ -470,7 +498,10 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
                   bark.peak_ncc,
                   bark.ok ? bark.shift_m : 0.0,
                   JaggedSilhouetteShare(o, f, px_m)};
-    SilhouetteVerdict verdict = JudgeSilhouetteFit(o, s, f, px_m, bark.ok);
+    // Held on its face, the sides seen apart measure it: they bound its width from both sides
+    // and the face its range, where the cloud saw a sliver of it (its width no check).
+    SilhouetteVerdict verdict =
+        on_face && f.ok ? SilhouetteVerdict::kUse : JudgeSilhouetteFit(o, s, f, px_m, bark.ok);
     if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
       const BarkDepth cloud_bark =
           MeasureBarkDepth(bark_options, topt, views, s.centre_xy, r0, breast_z);
@@ -538,7 +569,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     if (f.views < 4) s.flags.Set(StemFlag::kFewViews);
     if (s.depth_smeared) s.flags.Set(StemFlag::kDepthSmeared);
     // Over a quarter of the silhouettes beside a nearer stem: the width rests on the rest.
-    if (4 * f.hidden_sides > 2 * f.tried_views) s.flags.Set(StemFlag::kOccluded);
+    if (4 * f.hidden_sides > 2 * f.tried_views || on_face) s.flags.Set(StemFlag::kOccluded);
     // Both silhouettes in too few views: the width rests on one side (a lower bound, mostly).
     if (f.two_sided_views < 3) s.flags.Set(StemFlag::kOneSided);
     // The bark places the circle along the line of sight better than the silhouettes' parallax.

@@ -129,6 +129,15 @@ bool NoWiderThanANearerStemItIsBehind(std::span<const Stem> nearer, const Eigen:
 bool ShowsSidesPastNearerStem(const MeasureOptions& o, const Stem& part, double radius_m,
                               std::span<const Stem> nearer, const std::array<int, 2>& side_views);
 
+// A part straight behind a listed stem whose fit rests on one side per view, or which has none
+// (`fit`): the fit FitSidesOnFace holds on the face its cloud saw replaces `fit` when its sides
+// show apart (SidesSeenApart) and it is no wider, from the plot centre, than a nearer stem it is
+// behind (one wider shows both sides past it in the same views). Not for a part on weak support,
+// whose sliver of surface may be the nearer stem's smear. Returns whether it replaced `fit`.
+bool HoldOnFaceBehindNearer(const Stem& part, double radius0, std::span<const Stem> nearer,
+                            const TangentOptions& topt, const TangentViews& views, double breast_z,
+                            double px_m, TangentFit* fit);
+
 // The tangent fit checked on the bark: its distance from the bark (returned), and a fit whose bark
 // lines up at no distance (correlation under min_surface_ncc over enough pairs) or best at the end
 // of the search (beyond it, likely) fails. `measured`, when given, is the bark already measured

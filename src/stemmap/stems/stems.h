@@ -145,6 +145,9 @@ struct Stem {
   double lean_deg = 0.0;
   double pass_through = 0.0;  // free-space ratio
   double fit_shift_m = 0.0;   // how far the silhouette fit moved the centre from the cloud's
+  // The median distance from the plot centre of its breast-height slice's points: the face the
+  // cameras saw (0 where unknown). Stereo's depth, coarse at a point, is fine in the median.
+  double face_range_m = 0.0;
   FitEvidence evidence;
   // The points were smeared along the line of sight (far stems): centre and width come from
   // their spread across it, and neither is a reliable check on the silhouettes.

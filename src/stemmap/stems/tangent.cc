@@ -72,6 +72,10 @@ void TangentOptions::Check() const {
   if (!(min_views_each_side >= 0)) {
     throw InputError("the views each side needs must not be negative");
   }
+  if (!(face_sigma_m >= 0 && face_start_growth > 1)) {
+    throw InputError(
+        "the sigma of a stem's face's range must not be negative, its starts' growth above 1");
+  }
   if (!(blur_sigma_px >= 0)) throw InputError("the silhouettes' blur must not be negative");
 }
 
@@ -114,6 +118,14 @@ bool SolveTangentCircle(const std::vector<Eigen::Vector2d>& normals,
       const double wr = std::pow(prior->ray_sigma_m / prior->radius_sigma_m, 2);
       prior_ata(2, 2) = wr;
       prior_atb(2) = wr * prior->radius_m;
+    }
+    if (prior->face_sigma_m > 0) {
+      // The face's row: bearing . c - r = face_range (linear in c near the bearing: the circle's
+      // nearest point to the plot centre, |c| - r, to first order in the angle off it).
+      const double wf = std::pow(prior->ray_sigma_m / prior->face_sigma_m, 2);
+      const Eigen::Vector3d a(prior->face_bearing.x(), prior->face_bearing.y(), -1.0);
+      prior_ata += wf * a * a.transpose();
+      prior_atb += wf * prior->face_range_m * a;
     }
   }
   std::vector<double> w(n, 1.0);
@@ -268,9 +280,10 @@ std::array<int, 2> SideViewsAt(const TangentOptions& o, const TangentViews& v,
 
 namespace {
 
+// `face_range_m` > 0: the circle's face held at that range (CentrePrior::face_range_m).
 TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
                               const Eigen::Vector2d& centre0, double radius0, double r_start,
-                              double breast_z) {
+                              double breast_z, double face_range_m = 0.0) {
   TangentFit fit;
   Eigen::Vector2d c = centre0;
   double r = r_start;
@@ -318,6 +331,11 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
     Eigen::Vector2d c_new;
     double r_new, r_sd, rms;
     CentrePrior prior{centre0, o.PriorSigmaAt(centre0), o.huber_m};
+    if (face_range_m > 0 && o.face_sigma_m > 0) {
+      prior.face_bearing = centre0.normalized();
+      prior.face_range_m = face_range_m;
+      prior.face_sigma_m = o.face_sigma_m;
+    }
     bool solved = SolveTangentCircle(normals, origins, o.huber_m, &c_new, &r_new, &r_sd, &rms,
                                      nullptr, &prior);
     auto implausible = [&] {
@@ -389,6 +407,36 @@ int TangentFit::SideViews(int side) const {
   std::ranges::sort(keyframes);
   return static_cast<int>(
       std::ranges::distance(keyframes.begin(), std::ranges::unique(keyframes).begin()));
+}
+
+TangentFit FitSidesOnFace(const TangentOptions& o, const TangentViews& v,
+                          const Eigen::Vector2d& centre0, double radius0, double max_radius_m,
+                          double face_range_m, double breast_z) {
+  TangentFit best;
+  if (o.face_sigma_m <= 0 || face_range_m <= 0 || centre0.norm() <= 0 || radius0 <= 0) {
+    return best;
+  }
+  const Eigen::Vector2d bearing = centre0.normalized();
+  auto rarer_side = [](const TangentFit& f) { return std::min(f.SideViews(0), f.SideViews(1)); };
+  for (double r_start = radius0; r_start <= std::max(radius0, max_radius_m);
+       r_start *= o.face_start_growth) {
+    // Each start on the face: its centre a radius behind it.
+    const TangentFit f = FitTangentRaysFrom(o, v, (face_range_m + r_start) * bearing, radius0,
+                                            r_start, breast_z, face_range_m);
+    if (!f.ok) continue;
+    if (!best.ok || rarer_side(f) > rarer_side(best) ||
+        (rarer_side(f) == rarer_side(best) && f.rays > best.rays)) {
+      best = f;
+    }
+  }
+  if (best.ok) {
+    spdlog::debug(
+        "tangent: on its face {:.2f} m out: ({:.2f}, {:.2f}) r {:.3f}, sides in {} and {} views, "
+        "rms {:.1f} mm",
+        face_range_m, best.centre.x(), best.centre.y(), best.radius_m, best.SideViews(0),
+        best.SideViews(1), 1000 * best.rms_m);
+  }
+  return best;
 }
 
 bool SidesSeenApart(const TangentOptions& o, const TangentFit& fit, double px_m) {

@@ -115,6 +115,14 @@ struct TangentOptions {
   // least this many views, on one circle to within the narrower start's rms, bound its width
   // from both sides as two-sided views do (SidesSeenApart). 0: off.
   int min_views_each_side = 4;
+  // Such a stem's fit from sides seen apart slides along the line of sight (nearer and narrower,
+  // farther and wider: one side per view fixes its angular width, not its range). FitSidesOnFace
+  // holds the range of the face its cloud saw (Stem::face_range_m) to within this (m); its width
+  // moves by this times the stem's angular half-width (a few mm for a 5-cm slip). 0: off.
+  double face_sigma_m = 0.05;
+  // Its starts grow from the cloud's width by this factor, up to the widest stem the nearer one
+  // can hide (the cloud may have seen a sliver; a start far inside the outline finds nothing).
+  double face_start_growth = 1.5;
   // The largest radius, as a multiple of radius0, that a fit from these starts may reach:
   // a little beyond the widest (a fit grows from its start), and 2.5 without wide starts.
   // The centre prior's sigma for a start at centre0 (CentrePrior::sigma_m).
@@ -157,7 +165,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     recheck_rms_slack_px, narrow_start_scales, narrow_max_rms_px, narrow_min_share,
     on_bark_max_rms_px, recheck_rim, rim_min_share, tighter_rms_share, sideways_start_shifts,
     pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share, settle_few_views,
-    min_views_each_side, refine_on_brightness, blur_sigma_px)
+    min_views_each_side, face_sigma_m, face_start_growth, refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
@@ -209,6 +217,17 @@ bool SidesSeenApart(const TangentOptions& o, const TangentFit& fit, double px_m)
 // (`views.occluders`) are not searched.
 std::array<int, 2> SideViewsAt(const TangentOptions& o, const TangentViews& views,
                                const Eigen::Vector2d& c, double r, double breast_z);
+
+// A stem straight behind a nearer one, which shows one side per view: the circle tangent to its
+// silhouettes whose face (its nearest point to the plot centre) lies face_range_m out on the
+// bearing of centre0, within TangentOptions::face_sigma_m. Started at radius0 and at growing
+// multiples of it (face_start_growth) up to max_radius_m (the cloud sees a sliver of such a
+// stem: its width is a lower bound); the fit with the most views of its rarer side, then the most
+// rays, is returned (not ok where none fits, or face_sigma_m is 0). Whether it stands is
+// SidesSeenApart's to say.
+TangentFit FitSidesOnFace(const TangentOptions& o, const TangentViews& views,
+                          const Eigen::Vector2d& centre0, double radius0, double max_radius_m,
+                          double face_range_m, double breast_z);
 
 // One circle for the silhouettes of several fits of one stem (each silhouette once): reweighted
 // from each fit's circle in turn, the circle tangent to the most silhouettes. `pooled` is `chosen`
@@ -319,6 +338,12 @@ struct CentrePrior {
   // A prior on the radius too, when radius_sigma_m > 0: silhouettes of one side only fix where
   // the stem's side is, not how wide it is.
   double radius_m = 0.0, radius_sigma_m = 0.0;
+  // A prior on the range of the face the cameras see, when face_sigma_m > 0: the circle's
+  // nearest point to the plot centre along the unit bearing `face_bearing` lies face_range_m
+  // out. Rays from one side per view leave the stem free to slide along the line of sight
+  // (nearer and narrower, farther and wider); the face's range holds it.
+  Eigen::Vector2d face_bearing = Eigen::Vector2d::UnitX();
+  double face_range_m = 0.0, face_sigma_m = 0.0;
 };
 
 // Least squares circle tangent to horizontal lines n_i . (p - c_i) = r, weighted by Huber and,
