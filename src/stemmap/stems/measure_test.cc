@@ -263,8 +263,8 @@ TEST(MeasureTrees, ListsEachStemOfAPlotWithItsWidth) {
 
 // A stem partly behind a nearer one, over a range of offsets across the line of sight, from
 // half hidden from the plot centre to just clear of it. (Straight behind, 0.05-0.15 m off the
-// nearer stem's bearing: AThickStemStraightBehindANearerOneIsListed. Right on it, its fit from
-// one side at a time slides along the line of sight, here 0.6 m: docs/benchmarks.md, limits.)
+// nearer stem's bearing: AThickStemStraightBehindANearerOneIsListed. Right on it:
+// AStemRightOnANearerStemsBearingIsHeldOnItsFace.)
 TEST(MeasureTrees, AStemBehindANearerOneIsListedAtEveryOffset) {
   for (double offset_m : {0.25, 0.4, 0.6}) {
     SCOPED_TRACE(::testing::Message() << "offset " << offset_m << " m");
