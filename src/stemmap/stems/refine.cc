@@ -320,14 +320,14 @@ bool HoldOnFaceBehindNearer(const Stem& part, double radius0, std::span<const St
                             const TangentOptions& topt, const TangentViews& views, double breast_z,
                             double px_m, TangentFit* fit) {
   const bool one_side_per_view = !fit->ok || fit->two_sided_views < 3;
+  const double widest_ahead = WidestNearerStemAhead(nearer, part.centre_xy);
   if (!one_side_per_view || part.weak_support || part.face_range_m <= 0 ||
-      !(InShadowOfNearerStem(nearer, part.centre_xy) ||
-        (fit->ok && InShadowOfNearerStem(nearer, fit->centre)))) {
+      !(widest_ahead > 0 || (fit->ok && InShadowOfNearerStem(nearer, fit->centre)))) {
     return false;
   }
   // The widest stem whose face lies face_range_m out that the nearer stems hide from the plot
   // centre: r / (face + r) = sin(their angular half-width).
-  const double hidden_sin = std::sin(WidestNearerStemAhead(nearer, part.centre_xy));
+  const double hidden_sin = std::sin(widest_ahead);
   const double max_radius_m = part.face_range_m * hidden_sin / (1 - hidden_sin);
   TangentFit held = FitSidesOnFace(topt, views, part.centre_xy, radius0, max_radius_m,
                                    part.face_range_m, breast_z);
