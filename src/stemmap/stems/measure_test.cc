@@ -220,14 +220,14 @@ Scene MakeScene(const std::vector<Eigen::Vector3d>& stems,
   return s;
 }
 
-MeasureResult Measure(const Scene& s, MeasureOptions o = MeasureOptions()) {
+MeasureResult Measure(const Scene& s) {
   MeasureInput in;
   in.cloud = &s.cloud;
   in.camera = &s.rendered.camera;
   in.keyframes = &s.rendered.keyframes;
   in.bgr = &s.bgr;
   in.gray_full = s.rendered.gray;
-  return MeasureTrees(o, std::move(in));
+  return MeasureTrees(MeasureOptions(), std::move(in));
 }
 
 // Each true stem (x, y, radius) is listed once, within 3 cm and 1 cm of DBH.
