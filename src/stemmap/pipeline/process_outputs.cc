@@ -90,17 +90,17 @@ void WriteStemDetails(const std::filesystem::path& path, const std::vector<stems
   std::string s =
       "tree_id,x_m,y_m,dbh_tangent_cm,dbh_tangent_sd_cm,dbh_slice_cm,dbh_circle_cm,n_views,"
       "arc_deg,lean_deg,pass_through,n_points,tried_views,two_sided_views,fit_rms_px,bark_pairs,"
-      "bark_ncc,bark_shift_cm,jagged_share\n";
+      "bark_ncc,bark_shift_cm,jagged_share,dbh_seen_cm,dbh_hidden_max_cm\n";
   int id = 0;
   for (const stems::Stem& t : stems) {
     const stems::FitEvidence& e = t.evidence;
     s += fmt::format(
         "{},{:.3f},{:.3f},{:.2f},{:.2f},{:.2f},{:.2f},{},{:.1f},{:.1f},{:.2f},{},{},{},{:.2f},{},"
-        "{:.3f},{:.1f},{:.2f}\n",
+        "{:.3f},{:.1f},{:.2f},{:.2f},{:.2f}\n",
         ++id, t.centre_xy.x(), t.centre_xy.y(), 100 * t.dbh_tangent_m, 100 * t.dbh_tangent_sd_m,
         100 * t.dbh_slice_m, 100 * t.dbh_circle_m, t.n_views, t.arc_deg, t.lean_deg, t.pass_through,
         t.n_points, e.tried_views, e.two_sided_views, e.rms_px, e.bark_pairs, e.bark_ncc,
-        100 * e.bark_shift_m, e.jagged_share);
+        100 * e.bark_shift_m, e.jagged_share, 100 * t.dbh_seen_m, 100 * t.dbh_hidden_max_m);
   }
   WriteFileAtomic(path, s);
 }

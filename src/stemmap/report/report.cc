@@ -174,6 +174,10 @@ constexpr std::pair<std::string_view, std::string_view> kFlagMeanings[] = {
     {"silhouette_only",
      "hidden behind nearer stems for most of the turn and found from its edges alone: confirm "
      "it on the picture"},
+    {"width_from_stand",
+     "a nearer stem hid one of its edges wherever it could show: the diameter is the plot's "
+     "typical one between the width seen and the widest that stays hidden (see its SD); measure "
+     "it by tape"},
     {"plot_edge",
      "a borderline tree: its centre lies within one diameter of the plot edge; it is counted "
      "when the centre is inside"},

@@ -74,6 +74,12 @@ void MeasureOptions::Check() const {
     throw InputError(
         "the views a stem behind a nearer one shows its sides in must not be negative");
   }
+  if (!(hidden_side_min_gain == 0 || hidden_side_min_gain >= 1)) {
+    throw InputError("the gain a hidden side's widest width must reach must be 0 or at least 1");
+  }
+  if (hidden_side_stand_min_stems < 1) {
+    throw InputError("the stand's stems a hidden side's width needs must be at least 1");
+  }
   if (!(narrow_fit_share >= 0 && narrow_fit_share <= 1)) {
     throw InputError(
         "the share of a part's width below which its cores are tried must lie in [0, 1]");
@@ -123,6 +129,7 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
                            : static_cast<double>(in.gray_full[0].cols) / in.camera->width);
   RefineWithTangentRays(o, *in.camera, *in.keyframes, std::move(in.gray_full), *in.bgr, &sr.stems,
                         std::move(larger_only));
+  WidthsFromStand(o, &sr.stems);
   const size_t below =
       std::erase_if(sr.stems, [&](const Stem& s) { return 100 * s.dbh_m < o.min_dbh_cm; });
   if (below > 0) spdlog::info("stems: {} below {:.0f} cm DBH left out", below, o.min_dbh_cm);

@@ -111,6 +111,16 @@ struct MeasureOptions {
   // TangentOptions::min_views_each_side, which asks both sides for that many. Kept on its cloud
   // (the larger cloud's where that is wider), flagged occluded. 0: off.
   int sides_past_nearer_min_views = 6;
+  // A stem a nearer one hides one side of in every view that could show it (both silhouettes in
+  // fewer than three views, the hidden one in fewer than TangentOptions::min_views_each_side) is
+  // as wide as its seen side and cloud give at least, and at most as wide as keeps that side
+  // hidden (WidestRadiusWithSideHidden). Where the widest is at least hidden_side_min_gain times
+  // the seen width, its DBH is the mean of the plot's other listed stems between the two (at
+  // least hidden_side_stand_min_stems of them; else the middle of the two), flagged
+  // width_from_stand, its SD half the way to the farther end. A width read from a sliver is a
+  // lower bound, often a third of the stem. 0: off.
+  double hidden_side_min_gain = 1.25;
+  int hidden_side_stand_min_stems = 3;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -122,7 +132,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
     narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
     outline_over_bark_cloud_share, weak_on_bark_max_rms_px, leafy_edge_scatter_m,
-    leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views)
+    leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views, hidden_side_min_gain,
+    hidden_side_stand_min_stems)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

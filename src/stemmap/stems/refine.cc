@@ -306,6 +306,92 @@ double WidestNearerStemAhead(std::span<const Stem> nearer, const Eigen::Vector2d
 
 }  // namespace
 
+namespace {
+
+// The side (0 image left, 1 right) of the stem (c, r) toward the listed stem in front of it
+// whose outline, seen from the plot centre, comes nearest to its own within its angular width
+// (overlapping or not), or -1 where none does.
+int SideTowardNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& c, double r) {
+  const double d = c.norm();
+  if (d <= r) return -1;
+  const double half = std::asin(r / d), bearing = std::atan2(c.y(), c.x());
+  int side = -1;
+  double closest = 1e9;
+  for (const Stem& k : nearer) {
+    const double dk = k.centre_xy.norm(), rk = 0.5 * k.dbh_m;
+    if (dk + rk >= d - r || dk <= rk) continue;
+    const double apart =
+        std::remainder(std::atan2(k.centre_xy.y(), k.centre_xy.x()) - bearing, 2 * M_PI);
+    const double gap = std::abs(apart) - std::asin(rk / dk) - half;
+    if (gap < half && gap < closest) closest = gap, side = apart > 0 ? 0 : 1;
+  }
+  return side;
+}
+
+// For each listed stem whose width rests on one side or its cloud, where a nearer one hides the
+// other side in every view that could show it (MeasureOptions::hidden_side_min_gain): the widest
+// it could be with that side hidden (Stem::dbh_hidden_max_m) and the width seen (dbh_seen_m).
+// Views of a side that measure a stem's width: as many as a fit with both sides needs (a stem
+// whose sides show together in fewer is flagged one_sided).
+constexpr int kViewsThatMeasure = 3;
+
+void BoundHiddenSides(const MeasureOptions& o, const PinholeCamera& camera,
+                      const std::vector<StampedPose>& keyframes, const std::vector<cv::Mat>& gray,
+                      std::vector<Stem>* stems) {
+  if (o.hidden_side_min_gain <= 0) return;
+  for (Stem& s : *stems) {
+    const FitEvidence& e = s.evidence;
+    // One side in too few views to measure it: fewer than a fit stands on alone (a quarter of
+    // the views that should see the stem) and than sides seen apart need.
+    if (e.sides_apart) continue;
+    const double r = 0.5 * s.dbh_m;
+    const int side = SideTowardNearerStem(*stems, s.centre_xy, r);
+    // A width not the fit's (no_silhouette: the cloud's) has no silhouette on that side.
+    const int found = s.flags.Has(StemFlag::kNoSilhouette) ? 0 : e.clear_side_views[side];
+    if (side < 0 || found >= kViewsThatMeasure) continue;
+    std::vector<Eigen::Vector3d> others;
+    for (const Stem& k : *stems) {
+      if (&k != &s) others.emplace_back(k.centre_xy.x(), k.centre_xy.y(), 0.5 * k.dbh_m);
+    }
+    const TangentViews views{&camera, &keyframes, &gray, &others};
+    const double breast_z = s.floor_z_m + o.stems.breast_height_m;
+    // Where the width seen puts that side, views whose edge search should have found it did not:
+    // the stem goes on behind it. (Where no view shows that side, nothing says it is wider.)
+    const int open = ViewsShowingSide(o.tangent, views, s.centre_xy, r, side, breast_z);
+    if (open - found < kViewsThatMeasure) continue;
+    const double widest = WidestRadiusWithSideHidden(o.tangent, views, s.centre_xy, r, side,
+                                                     breast_z, 0.5 * o.stems.max_diameter_m);
+    if (widest < o.hidden_side_min_gain * r) continue;
+    s.dbh_seen_m = s.dbh_m;
+    s.dbh_hidden_max_m = 2 * widest;
+    s.hidden_side = side;
+    spdlog::debug("stems: ({:.2f}, {:.2f}) {:.1f} cm seen, its {} side hidden: up to {:.1f} cm",
+                  s.centre_xy.x(), s.centre_xy.y(), 100 * s.dbh_m, side == 0 ? "left" : "right",
+                  200 * widest);
+  }
+}
+
+}  // namespace
+
+void WidthsFromStand(const MeasureOptions& o, std::vector<Stem>* stems) {
+  std::vector<double> measured;
+  for (const Stem& s : *stems) {
+    if (s.dbh_hidden_max_m <= 0) measured.push_back(s.dbh_m);
+  }
+  for (Stem& s : *stems) {
+    if (s.dbh_hidden_max_m <= 0) continue;
+    double sum = 0;
+    int n = 0;
+    for (const double d : measured) {
+      if (d >= s.dbh_seen_m && d <= s.dbh_hidden_max_m) sum += d, ++n;
+    }
+    s.dbh_m =
+        n >= o.hidden_side_stand_min_stems ? sum / n : 0.5 * (s.dbh_seen_m + s.dbh_hidden_max_m);
+    s.centre_xy = GrownHoldingFace(s.centre_xy, 0.5 * s.dbh_seen_m, s.hidden_side, 0.5 * s.dbh_m);
+    s.flags.Set(StemFlag::kWidthFromStand);
+  }
+}
+
 bool InShadowOfNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& centre) {
   return WidestNearerStemAhead(nearer, centre) > 0;
 }
@@ -497,7 +583,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
                   bark.pairs,
                   bark.peak_ncc,
                   bark.ok ? bark.shift_m : 0.0,
-                  JaggedSilhouetteShare(o, f, px_m)};
+                  JaggedSilhouetteShare(o, f, px_m),
+                  f.ok ? std::min(f.SideViews(0), f.SideViews(1)) : 0,
+                  SideViewsClearOfNearerStems(topt, views, f, breast_z)};
     // Held on its face, the sides seen apart measure it: they bound its width from both sides
     // and the face its range, where the cloud saw a sliver of it (its width no check).
     SilhouetteVerdict verdict =
@@ -528,6 +616,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     // nearer stem hides one side from each end of the arm. Elsewhere, a stem shows both sides
     // in the same views, and sides only ever seen apart are the edges of two things.
     const bool seen_apart = behind_nearer && SidesSeenApart(topt, f, px_m);
+    s.evidence.sides_apart = seen_apart || on_face;
     const bool clean =
         (f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m) || seen_apart;
     const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
@@ -555,6 +644,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
         if (o.stems.dbh_method == "tangent") s.flags.Set(StemFlag::kNoSilhouette);
         RefinedStem kept_on_cloud{SilhouetteVerdict::kKeepCloud, std::move(s)};
         kept_on_cloud.sides_past_nearer = true;
+        kept_on_cloud.stem.evidence.sides_apart = true;
         return kept_on_cloud;
       }
       spdlog::debug("stems: ({:.2f}, {:.2f}) dropped: straight behind a listed stem, no clean fit",
@@ -612,6 +702,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
   const int hidden = AddLargerCloudOnlyStems(
       o, std::move(larger_cloud_only), [&](Stem s) { return refine_stem(std::move(s), false); },
       &kept, &occluders);
+  BoundHiddenSides(o, camera, keyframes, gray, &kept);
   const int twice = DropStemsFittedTwice(o.min_bark_gap_m, &kept);
   spdlog::info(
       "stems: tangent rays fitted {} of {} stems ({} from the cores of parts) and {} of {} the "

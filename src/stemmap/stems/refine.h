@@ -162,6 +162,13 @@ bool OutlineOutweighsPlainBark(const MeasureOptions& o, const TangentFit& fit,
 bool WideFitLinesUpOnBark(const MeasureOptions& o, const TangentFit& fit, const BarkDepth& bark,
                           double cloud_radius_m);
 
+// The DBH of each stem a nearer one hides one side of (Stem::dbh_hidden_max_m > 0, set by
+// RefineWithTangentRays): the mean of the other listed stems' DBH between its seen width and the
+// widest it could be (MeasureOptions::hidden_side_stand_min_stems of them at least; else the
+// middle of the two), flagged width_from_stand. The stand is the prior a forester has for a stem
+// seen in part.
+void WidthsFromStand(const MeasureOptions& o, std::vector<Stem>* stems);
+
 // Runs the tangent-ray estimator on every stem. A plausible fit places the stem; with the tangent
 // method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution
 // (blurred in place), or empty to use `bgr` at the working resolution. `larger_cloud_only`

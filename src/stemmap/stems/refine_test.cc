@@ -36,6 +36,34 @@ Stem Fitted(double x, double y, double dbh_m, double shift_m) {
   return s;
 }
 
+// A stem seen 12 cm wide, its right side hidden, up to 60 cm wide: the stand's stems of 20, 30
+// and 40 cm lie between (the 8- and 70-cm ones do not), so it reads their mean, 30 cm, and its
+// centre moves away from the plot centre and to the right by the radius gained, its face and
+// seen side held. With too few of the stand between, the middle of the two.
+TEST(WidthsFromStand, AStemSeenInPartTakesTheStandsMeanBetweenItsBounds) {
+  MeasureOptions o;
+  std::vector<Stem> stems;
+  for (const double d : {0.08, 0.20, 0.30, 0.40, 0.70}) stems.push_back(Fitted(0, 4, d, 0));
+  Stem part = Fitted(8.0, 0.0, 0.12, 0);
+  part.dbh_seen_m = 0.12;
+  part.dbh_hidden_max_m = 0.60;
+  part.hidden_side = 1;
+  stems.push_back(part);
+  WidthsFromStand(o, &stems);
+  const Stem& s = stems.back();
+  EXPECT_NEAR(s.dbh_m, 0.30, 1e-9);
+  EXPECT_TRUE(s.flags.Has(StemFlag::kWidthFromStand));
+  EXPECT_NEAR(s.centre_xy.x(), 8.09, 1e-9);   // away from the plot centre by 9 cm
+  EXPECT_NEAR(s.centre_xy.y(), -0.09, 1e-9);  // and to the right (image right: -y looking +x)
+  for (size_t i = 0; i + 1 < stems.size(); ++i) {
+    EXPECT_FALSE(stems[i].flags.Has(StemFlag::kWidthFromStand));
+  }
+  o.hidden_side_stand_min_stems = 4;
+  stems.back() = part;
+  WidthsFromStand(o, &stems);
+  EXPECT_NEAR(stems.back().dbh_m, 0.36, 1e-9);
+}
+
 TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
   std::vector<Eigen::Vector3d> occluders = {{1, 0, 0.1}, {5, 0, 0.3}, {9, 0, 0.2}};
   std::vector<Stem> fitted(2);

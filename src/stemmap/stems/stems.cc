@@ -30,6 +30,8 @@ std::string_view FlagName(StemFlag flag) {
       return "depth_smeared";
     case StemFlag::kSilhouetteOnly:
       return "silhouette_only";
+    case StemFlag::kWidthFromStand:
+      return "width_from_stand";
   }
   return "unknown";
 }

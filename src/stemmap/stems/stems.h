@@ -1,6 +1,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <span>
@@ -94,8 +95,12 @@ enum class StemFlag : uint8_t {
   kNoSilhouette,    // no silhouette fit stands: the width is the cloud's
   kDepthSmeared,    // its points were smeared along the line of sight (far stems)
   kSilhouetteOnly,  // listed on its silhouettes where the cloud had no part
+  // A nearer stem hid one side in every view that could have shown it: the DBH is the stand's
+  // between the width its seen side gives and the widest it could be (Stem::dbh_seen_m,
+  // dbh_hidden_max_m).
+  kWidthFromStand,
 };
-inline constexpr int kStemFlagCount = 6;
+inline constexpr int kStemFlagCount = 7;
 // The flag's name in the outputs (`one_sided`, ...).
 std::string_view FlagName(StemFlag flag);
 
@@ -127,6 +132,13 @@ struct FitEvidence {
   // The share of its silhouettes whose bands stray from a straight line as leaves' edges do
   // (JaggedSilhouetteShare).
   double jagged_share = 0.0;
+  int rarer_side_views = 0;  // views that gave the silhouette of the side seen less often
+  // Views that gave each side's silhouette (0 left, 1 right) clear of every nearer stem's
+  // outline (SideViewsClearOfNearerStems).
+  std::array<int, 2> clear_side_views = {0, 0};
+  // Its sides, seen one at a time past a nearer stem, measure it (SidesSeenApart, a fit held on
+  // its face, or sides shown where its cloud's circle predicts them).
+  bool sides_apart = false;
 };
 
 struct Stem {
@@ -148,6 +160,11 @@ struct Stem {
   // The median distance from the plot centre of its breast-height slice's points: the face the
   // cameras saw (0 where unknown). Stereo's depth, coarse at a point, is fine in the median.
   double face_range_m = 0.0;
+  // Where a nearer stem hides one side in every view that could show it (StemFlag::
+  // kWidthFromStand): the DBH its seen side and its cloud give (a lower bound), and the widest it
+  // could be with that side still hidden (WidestRadiusWithSideHidden); 0 elsewhere.
+  double dbh_seen_m = 0.0, dbh_hidden_max_m = 0.0;
+  int hidden_side = -1;  // which (0 image left / 1 right, from the plot centre); -1: none
   FitEvidence evidence;
   // The points were smeared along the line of sight (far stems): centre and width come from
   // their spread across it, and neither is a reliable check on the silhouettes.

@@ -393,11 +393,14 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
 
 }  // namespace
 
-double TangentFit::JaggedShare(double scatter_m) const {
-  if (silhouettes.empty()) return 0.0;
-  const auto jagged = std::ranges::count_if(
-      silhouettes, [&](const Ray& ray) { return ray.edge_scatter_m > scatter_m; });
-  return static_cast<double>(jagged) / static_cast<double>(silhouettes.size());
+double TangentFit::JaggedShare(double scatter_m, int side) const {
+  int n = 0, jagged = 0;
+  for (const Ray& ray : silhouettes) {
+    if (side >= 0 && ray.side != side) continue;
+    ++n;
+    jagged += ray.edge_scatter_m > scatter_m;
+  }
+  return n > 0 ? static_cast<double>(jagged) / n : 0.0;
 }
 int TangentFit::SideViews(int side) const {
   std::vector<int> keyframes;
@@ -442,6 +445,141 @@ TangentFit FitSidesOnFace(const TangentOptions& o, const TangentViews& v,
 bool SidesSeenApart(const TangentOptions& o, const TangentFit& fit, double px_m) {
   return o.min_views_each_side > 0 && fit.ok && fit.rms_m < o.narrow_max_rms_px * px_m &&
          fit.SideViews(0) >= o.min_views_each_side && fit.SideViews(1) >= o.min_views_each_side;
+}
+
+namespace {
+
+// How keyframe k would see side `s` of the circle (c, r), where it tries the stem (MeasureView's
+// gates): whether a nearer stem's outline or the picture's border covers it (within a quarter of
+// the edge search's reach), whether the edge search would look for it (WindowBesideOccluders:
+// not with too little beside it), and whether a nearer stem's outline lies between it and the
+// other side.
+struct SideSight {
+  bool tried = false, covered = false, searched = false, past_nearer = false;
+};
+
+SideSight SideInView(const TangentOptions& o, const TangentViews& v, const Eigen::Vector2d& c,
+                     double r, int s, double breast_z, size_t k) {
+  const PinholeCamera& cam = *v.camera;
+  const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
+  const Rigid3d cam_from_world = world_from_cam.Inverse();
+  const Eigen::Vector2d cc = world_from_cam.translation.head<2>();
+  const Eigen::Vector2d to_stem = c - cc;
+  const double d = to_stem.norm();
+  SideSight sight;
+  if (d < r + 0.3) return sight;
+  const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
+  if (p_cam.z() < 0.5) return sight;
+  const double x_centre = cam.ImageFromCam(p_cam).x();
+  if (x_centre < 0.08 * cam.width || x_centre > 0.92 * cam.width) return sight;
+  std::array<double, 2> xs;
+  if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, breast_z, &xs)) return sight;
+  sight.tried = true;
+  const double x_side = xs[s], x_other = xs[1 - s];
+  const double edge_px = 0.25 * o.search_px;
+  sight.covered = x_side < edge_px || x_side > cam.width - 1 - edge_px;
+  std::vector<std::array<double, 2>> occluder_cols;
+  for (const Eigen::Vector3d& q : FrontOccluders(o, v, cc, to_stem / d, d, r)) {
+    std::array<double, 2> qs;
+    if (!SilhouetteColumns(cam, cam_from_world, cc, q.head<2>(), q.z(), breast_z, &qs)) continue;
+    sight.covered |= qs[0] < x_side + edge_px && qs[1] > x_side - edge_px;
+    sight.past_nearer |= std::min(x_side, x_other) < qs[0] && qs[1] < std::max(x_side, x_other);
+    occluder_cols.push_back(qs);
+  }
+  occluder_cols.push_back({-1e9, 0.0});
+  occluder_cols.push_back({cam.width - 1.0, 1e9});
+  const double guard_px = std::max(edge_px, 0.1 * (xs[1] - xs[0]));
+  sight.searched = !WindowBesideOccluders(occluder_cols, xs[0], xs[1], guard_px).hidden[s];
+  return sight;
+}
+
+}  // namespace
+
+std::array<int, 2> SideViewsClearOfNearerStems(const TangentOptions& o, const TangentViews& v,
+                                               const TangentFit& fit, double breast_z) {
+  std::array<std::vector<int>, 2> keyframes;
+  if (!fit.ok) return {0, 0};
+  const PinholeCamera& cam = *v.camera;
+  for (const TangentFit::Ray& ray : fit.silhouettes) {
+    const Rigid3d cam_from_world = (*v.keyframes)[ray.keyframe].world_from_cam.Inverse();
+    const Eigen::Vector2d to_stem = fit.centre - ray.origin;
+    const double d = to_stem.norm();
+    std::array<double, 2> xs;
+    if (d <= fit.radius_m || !SilhouetteColumns(cam, cam_from_world, ray.origin, fit.centre,
+                                                fit.radius_m, breast_z, &xs)) {
+      continue;
+    }
+    // The silhouette's column: its tangent line, as far out as the stem.
+    Eigen::Vector2d along(-ray.normal.y(), ray.normal.x());
+    if (along.dot(to_stem) < 0) along = -along;
+    const Eigen::Vector2d at = ray.origin + d * along;
+    const Eigen::Vector3d p = cam_from_world * Eigen::Vector3d(at.x(), at.y(), breast_z);
+    if (p.z() < 0.1) continue;
+    const double x = cam.ImageFromCam(p).x();
+    const double margin_px = 3 * std::max(0.25 * o.search_px, 0.1 * (xs[1] - xs[0]));
+    bool clear = true;
+    for (const Eigen::Vector3d& q :
+         FrontOccluders(o, v, ray.origin, to_stem / d, d, fit.radius_m)) {
+      std::array<double, 2> qs;
+      if (SilhouetteColumns(cam, cam_from_world, ray.origin, q.head<2>(), q.z(), breast_z, &qs)) {
+        clear &= x < qs[0] - margin_px || x > qs[1] + margin_px;
+      }
+    }
+    if (clear) keyframes[ray.side].push_back(ray.keyframe);
+  }
+  std::array<int, 2> views;
+  for (int s = 0; s < 2; ++s) {
+    std::ranges::sort(keyframes[s]);
+    const auto [first, last] = std::ranges::unique(keyframes[s]);
+    keyframes[s].erase(first, last);
+    views[s] = static_cast<int>(keyframes[s].size());
+  }
+  return views;
+}
+
+int ViewsShowingSide(const TangentOptions& o, const TangentViews& v, const Eigen::Vector2d& centre,
+                     double radius_m, int side, double breast_z) {
+  int n = 0;
+  for (size_t k = 0; k < v.keyframes->size(); ++k) {
+    const SideSight sight = SideInView(o, v, centre, radius_m, side, breast_z, k);
+    n += sight.tried && sight.searched;
+  }
+  return n;
+}
+
+Eigen::Vector2d GrownHoldingFace(const Eigen::Vector2d& centre, double radius_m, int hidden_side,
+                                 double grown_radius_m) {
+  // Away from the plot centre and toward the hidden side by as much as the radius grows.
+  const Eigen::Vector2d u = centre.normalized(), left(-u.y(), u.x());
+  return centre + (grown_radius_m - radius_m) * (u + (hidden_side == 0 ? 1.0 : -1.0) * left);
+}
+
+double WidestRadiusWithSideHidden(const TangentOptions& o, const TangentViews& v,
+                                  const Eigen::Vector2d& centre, double radius_m, int hidden_side,
+                                  double breast_z, double max_radius_m) {
+  const double d = centre.norm();
+  if (d <= radius_m || radius_m <= 0 || !v.occluders) return radius_m;
+  const int n_views = static_cast<int>(v.keyframes->size());
+  double widest = radius_m;
+  for (double r = radius_m * 1.02; r <= max_radius_m; r *= 1.02) {
+    const Eigen::Vector2d c = GrownHoldingFace(centre, radius_m, hidden_side, r);
+    // (Not the stem itself: an occluder its own circle already overlaps.)
+    const bool into_stem = std::ranges::any_of(*v.occluders, [&](const Eigen::Vector3d& q) {
+      return (q.head<2>() - c).norm() < q.z() + r &&
+             (q.head<2>() - centre).norm() > q.z() + radius_m;
+    });
+    if (into_stem) break;
+    int past_nearer = 0, hidden = 0;
+    for (int k = 0; k < n_views; ++k) {
+      const SideSight sight = SideInView(o, v, c, r, hidden_side, breast_z, k);
+      past_nearer += sight.tried && !sight.covered && sight.past_nearer;
+      hidden += sight.tried && sight.covered;
+    }
+    // Shown past a nearer stem in more than one view, or hidden in none: it would have been seen.
+    if (past_nearer > 1 || hidden == 0) break;
+    widest = r;
+  }
+  return widest;
 }
 
 // One circle for the silhouettes of every start (each once), robustly: it keeps the rays tangent

@@ -197,8 +197,9 @@ struct TangentFit {
     double edge_scatter_m = 0;
   };
   std::vector<Ray> silhouettes;
-  // The share of its silhouettes whose edge_scatter_m exceeds `scatter_m` (0 without any).
-  double JaggedShare(double scatter_m) const;
+  // The share of its silhouettes (of `side` alone, where not -1) whose edge_scatter_m exceeds
+  // `scatter_m` (0 without any).
+  double JaggedShare(double scatter_m, int side = -1) const;
   // The views that gave the silhouette of `side` (0 left, 1 right) in the last round.
   int SideViews(int side) const;
 };
@@ -228,6 +229,37 @@ std::array<int, 2> SideViewsAt(const TangentOptions& o, const TangentViews& view
 TangentFit FitSidesOnFace(const TangentOptions& o, const TangentViews& views,
                           const Eigen::Vector2d& centre0, double radius0, double max_radius_m,
                           double face_range_m, double breast_z);
+
+// How many views gave each side's silhouette (0 image left, 1 right) of `fit` clear of every
+// nearer stem's outline (`views.occluders`) by more than the edge search's margin for a side to
+// show (three guards, WindowBesideOccluders): an edge found at a nearer stem's outline may be
+// that stem's, and a side seen only there did not measure the stem.
+std::array<int, 2> SideViewsClearOfNearerStems(const TangentOptions& o, const TangentViews& views,
+                                               const TangentFit& fit, double breast_z);
+
+// How many views that should see the stem (centre, radius_m) would show its side `side` (0 image
+// left / 1 right) clear of nearer stems (`views.occluders`) and the picture's borders, by the
+// edge search's guard. Geometry alone.
+int ViewsShowingSide(const TangentOptions& o, const TangentViews& views,
+                     const Eigen::Vector2d& centre, double radius_m, int side, double breast_z);
+
+// The centre of the stem (centre, radius_m) grown to `grown_radius_m` toward its side
+// `hidden_side` (0 image left / 1 right, seen from the plot centre) with its face (nearest point
+// to the plot centre) and its other side held where they are.
+Eigen::Vector2d GrownHoldingFace(const Eigen::Vector2d& centre, double radius_m, int hidden_side,
+                                 double grown_radius_m);
+
+// For a stem a nearer one hides one side of (`hidden_side`, 0 image left / 1 right) in most
+// views: the widest circle that keeps that side out of sight. The circle (centre, radius_m) is
+// grown, its face (nearest point to the plot centre) and its other side held where they are,
+// until the hidden side would show past a nearer stem's far outline (`views.occluders`), in the
+// open within the picture, in more than one view that should see the stem (one such view may have
+// missed an edge), until no view would hide it, or until it would reach into another stem; at
+// most max_radius_m. radius_m where nothing hides that side. Geometry alone: no picture is read.
+// The width seen bounds the radius from below; this, from above.
+double WidestRadiusWithSideHidden(const TangentOptions& o, const TangentViews& views,
+                                  const Eigen::Vector2d& centre, double radius_m, int hidden_side,
+                                  double breast_z, double max_radius_m);
 
 // One circle for the silhouettes of several fits of one stem (each silhouette once): reweighted
 // from each fit's circle in turn, the circle tangent to the most silhouettes. `pooled` is `chosen`

@@ -205,6 +205,32 @@ TEST(Tangent, TheFacesRangeHoldsAStemSeenOneSideAtATime) {
   EXPECT_NEAR(fitted.x() - r, prior.face_range_m, 0.05);
 }
 
+// A 44-cm stem 9 m out, 1.2 degrees off the bearing of a 36.6-cm one 5 m out, seen as a 12.8-cm
+// sliver at its far side: the nearer stem covers its right side (image right) in most views, and
+// where the sliver puts that side, views see the stem's own bark. The widest circle that keeps
+// that side hidden reaches past the true one; a stem with nothing in front hides no side.
+TEST(Tangent, TheWidestCircleWithASideHiddenBoundsAStemSeenAsASliver) {
+  const PinholeCamera camera = PinholeCamera::FromHfov(960, 540, 67.0);
+  const RenderedStem scene = RenderStems({}, false, false, Texture::kRegular, camera);
+  const std::vector<Eigen::Vector3d> nearer = {{5.0, 0.0, 0.183}};
+  const TangentOptions o;
+  const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray, &nearer};
+  const double a = 1.2 * M_PI / 180;
+  const Eigen::Vector2d truth(9.0 * std::cos(a), 9.0 * std::sin(a));
+  const double true_radius = 0.22, seen_radius = 0.064;
+  // The sliver: the true circle's left side, its face where the true one's is.
+  const Eigen::Vector2d u = truth.normalized(), left(-u.y(), u.x());
+  const Eigen::Vector2d sliver = truth + (true_radius - seen_radius) * (left - u);
+  EXPECT_GE(ViewsShowingSide(o, views, sliver, seen_radius, 1, 1.3), 3);
+  const double widest = WidestRadiusWithSideHidden(o, views, sliver, seen_radius, 1, 1.3, 0.6);
+  EXPECT_GT(widest, true_radius);
+  EXPECT_LT(widest, 0.6);
+  EXPECT_LT((GrownHoldingFace(sliver, seen_radius, 1, true_radius) - truth).norm(), 0.01);
+  const std::vector<Eigen::Vector3d> none;
+  const TangentViews open{&scene.camera, &scene.keyframes, &scene.gray, &none};
+  EXPECT_EQ(WidestRadiusWithSideHidden(o, open, sliver, seen_radius, 1, 1.3, 0.6), seen_radius);
+}
+
 // The fit starts from a centre 0.3 m too far and a radius 2 cm small, as the cloud gives them.
 TEST(Tangent, FitsARenderedStem) {
   const Eigen::Vector2d centre(6.0, 0.3);

@@ -24,6 +24,12 @@ double DbhSd(const UncertaintyOptions& o, const Stem& s, double px_m) {
   // Two silhouettes, each biased on its own.
   const double edges = std::sqrt(2.0) * o.edge_bias_px * px_m;
   double var = fit_sd * fit_sd + edges * edges + std::pow(o.section_share * s.dbh_m, 2);
+  if (s.flags.Has(StemFlag::kWidthFromStand)) {
+    // Anywhere between the width seen and the widest hidden: two SD reach the farther end.
+    const double reach_m = std::max(s.dbh_m - s.dbh_seen_m, s.dbh_hidden_max_m - s.dbh_m);
+    return std::sqrt(edges * edges + std::pow(o.section_share * s.dbh_m, 2) +
+                     std::pow(0.5 * reach_m, 2));
+  }
   const double cloud_m = s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m;
   if (s.dbh_tangent_m > 0 && cloud_m > 0) {
     var += std::pow(o.estimator_gap_share * (s.dbh_tangent_m - cloud_m), 2);

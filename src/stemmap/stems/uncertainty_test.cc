@@ -47,6 +47,19 @@ TEST(DbhSd, GrowsWithWhatTheWidthCannotCheck) {
   EXPECT_GT(DbhSd(o, cloud, px_m), o.no_silhouette_share * 0.30);
 }
 
+// A stem a nearer one hides one side of, its DBH the stand's between the width seen and the
+// widest hidden: two SD reach the farther of the two.
+TEST(DbhSd, AWidthFromTheStandReachesItsBounds) {
+  const UncertaintyOptions o;
+  Stem s = Fitted();
+  s.dbh_seen_m = 0.12;
+  s.dbh_hidden_max_m = 0.60;
+  s.flags.Set(StemFlag::kWidthFromStand);
+  const double sd = DbhSd(o, s, 0.004);
+  EXPECT_GE(2 * sd, 0.60 - 0.30);
+  EXPECT_LT(2 * sd, 0.60 - 0.30 + 0.03);
+}
+
 TEST(DetectionConfidence, FollowsWhatListedTheStem) {
   const UncertaintyOptions o;
   Stem s = Fitted();
