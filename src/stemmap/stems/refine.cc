@@ -341,14 +341,17 @@ void BoundHiddenSides(const MeasureOptions& o, const PinholeCamera& camera,
   if (o.hidden_side_min_gain <= 0) return;
   for (Stem& s : *stems) {
     const FitEvidence& e = s.evidence;
-    // One side in too few views to measure it: fewer than a fit stands on alone (a quarter of
-    // the views that should see the stem) and than sides seen apart need.
+    // Sides seen one at a time past the nearer stem measure it.
     if (e.sides_apart) continue;
     const double r = 0.5 * s.dbh_m;
     const int side = SideTowardNearerStem(*stems, s.centre_xy, r);
-    // A width not the fit's (no_silhouette: the cloud's) has no silhouette on that side.
+    if (side < 0) continue;
+    // The side toward the nearer stem, clear of it in enough views, measures it; a width not the
+    // fit's (no_silhouette: the cloud's) has no silhouette there.
     const int found = s.flags.Has(StemFlag::kNoSilhouette) ? 0 : e.clear_side_views[side];
-    if (side < 0 || found >= kViewsThatMeasure) continue;
+    spdlog::trace("stems: ({:.2f}, {:.2f}) its {} side toward a nearer stem: {} views clear of it",
+                  s.centre_xy.x(), s.centre_xy.y(), side == 0 ? "left" : "right", found);
+    if (found >= kViewsThatMeasure) continue;
     std::vector<Eigen::Vector3d> others;
     for (const Stem& k : *stems) {
       if (&k != &s) others.emplace_back(k.centre_xy.x(), k.centre_xy.y(), 0.5 * k.dbh_m);
