@@ -75,12 +75,8 @@ BarkView SeesBark(const TangentOptions& t, const TangentViews& v, int k, const E
   const Rigid3d& world_from_cam = (*v.keyframes)[k].world_from_cam;
   const Rigid3d cam_from_world = world_from_cam.Inverse();
   const Eigen::Vector2d cc = world_from_cam.translation.head<2>();
+  if (!StemInView(cam, cam_from_world, cc, c, r, breast_z)) return out;
   const double d = (c - cc).norm();
-  if (d < r + 0.3) return out;
-  const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
-  if (p_cam.z() < 0.5) return out;
-  const double x = cam.ImageFromCam(p_cam).x();
-  if (x < 0.08 * cam.width || x > 0.92 * cam.width) return out;
   std::array<double, 2> xs;
   if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, breast_z, &xs)) return out;
   const double xm = 0.5 * (xs[0] + xs[1]), half = 0.5 * window.outer_share * (xs[1] - xs[0]);

@@ -339,6 +339,17 @@ bool BesideNearerStem(const std::vector<Eigen::Vector3d>& stems, const Eigen::Ve
   return false;
 }
 
+std::optional<Eigen::Vector3d> StemInView(const PinholeCamera& cam, const Rigid3d& cam_from_world,
+                                          const Eigen::Vector2d& cc, const Eigen::Vector2d& c,
+                                          double r, double breast_z) {
+  if ((c - cc).norm() < r + 0.3) return std::nullopt;
+  const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
+  if (p_cam.z() < 0.5) return std::nullopt;
+  const double x = cam.ImageFromCam(p_cam).x();
+  if (x < 0.08 * cam.width || x > 0.92 * cam.width) return std::nullopt;
+  return p_cam;
+}
+
 bool SilhouetteColumns(const PinholeCamera& cam, const Rigid3d& cam_from_world,
                        const Eigen::Vector2d& cc, const Eigen::Vector2d& centre, double r, double z,
                        std::array<double, 2>* xs) {

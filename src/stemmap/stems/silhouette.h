@@ -5,6 +5,7 @@
 // themselves.
 #include <Eigen/Core>
 #include <array>
+#include <optional>
 #include <vector>
 
 #include "stemmap/camera/camera.h"
@@ -55,6 +56,14 @@ std::vector<Eigen::Vector3d> FrontOccluders(const TangentOptions& o, const Tange
 // own angular width of it (gap or overlap); stems within min_gap_m of its distance do not count.
 bool BesideNearerStem(const std::vector<Eigen::Vector3d>& stems, const Eigen::Vector2d& c, double r,
                       double min_gap_m);
+
+// Whether a keyframe (camera centre cc) tries the stem (c, r): its centre at breast_z 0.3 m
+// beyond its bark and 0.5 m in front of the camera, within the middle 84 % of the picture's
+// width (nearer the border the window around it leaves the picture). Returns that centre in the
+// camera frame, or nothing.
+std::optional<Eigen::Vector3d> StemInView(const PinholeCamera& cam, const Rigid3d& cam_from_world,
+                                          const Eigen::Vector2d& cc, const Eigen::Vector2d& c,
+                                          double r, double breast_z);
 
 // Image columns (ascending) of the silhouettes of the vertical circle (centre, r) at height z
 // seen from a camera at cc; false when a silhouette lies behind the camera.

@@ -190,11 +190,11 @@ ViewRays MeasureView(const TangentOptions& o, const TangentViews& v, const Eigen
   const Eigen::Vector2d cc = world_from_cam.translation.head<2>();
   const Eigen::Vector2d to_stem = c - cc;
   const double d = to_stem.norm();
-  if (d < r + 0.3) return out;
-  const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
-  if (p_cam.z() < 0.5) return out;
+  const std::optional<Eigen::Vector3d> in_view =
+      StemInView(cam, cam_from_world, cc, c, r, breast_z);
+  if (!in_view) return out;
+  const Eigen::Vector3d p_cam = *in_view;
   const Eigen::Vector2d p_img = cam.ImageFromCam(p_cam);
-  if (p_img.x() < 0.08 * cam.width || p_img.x() > 0.92 * cam.width) return out;
   const Eigen::Vector2d u = to_stem / d;
   // Bands of rows, apart by their own height, within band_half_height_m of breast height; for a
   // near stem, seen large, at most max_bands_each_side on each side, spread over that height.
@@ -467,11 +467,7 @@ SideSight SideInView(const TangentOptions& o, const TangentViews& v, const Eigen
   const Eigen::Vector2d to_stem = c - cc;
   const double d = to_stem.norm();
   SideSight sight;
-  if (d < r + 0.3) return sight;
-  const Eigen::Vector3d p_cam = cam_from_world * Eigen::Vector3d(c.x(), c.y(), breast_z);
-  if (p_cam.z() < 0.5) return sight;
-  const double x_centre = cam.ImageFromCam(p_cam).x();
-  if (x_centre < 0.08 * cam.width || x_centre > 0.92 * cam.width) return sight;
+  if (!StemInView(cam, cam_from_world, cc, c, r, breast_z)) return sight;
   std::array<double, 2> xs;
   if (!SilhouetteColumns(cam, cam_from_world, cc, c, r, breast_z, &xs)) return sight;
   sight.tried = true;
