@@ -77,6 +77,10 @@ void MeasureOptions::Check() const {
   if (!(hidden_side_min_gain == 0 || hidden_side_min_gain >= 1)) {
     throw InputError("the gain a hidden side's widest width must reach must be 0 or at least 1");
   }
+  if (!(hidden_side_min_seen_share >= 0 && hidden_side_min_seen_share <= 1)) {
+    throw InputError(
+        "the share of views a side toward a nearer stem must be seen in must lie in [0, 1]");
+  }
   if (hidden_side_stand_min_stems < 1) {
     throw InputError("the stand's stems a hidden side's width needs must be at least 1");
   }

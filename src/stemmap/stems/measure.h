@@ -121,6 +121,12 @@ struct MeasureOptions {
   // lower bound, often a third of the stem. 0: off.
   double hidden_side_min_gain = 1.25;
   int hidden_side_stand_min_stems = 3;
+  // The side toward the nearer stem measures the width only where it is found, clear of that
+  // stem's outline, in at least this share of the views whose edge search would find it where
+  // the width seen puts it (and in three at least): edges found in a few of them are the bark's
+  // or the nearer stem's, and where the others show nothing the stem goes on behind (a 36-cm
+  // stem read 16 cm from a near side found in 3 of 10 such views). 0: three views will do.
+  double hidden_side_min_seen_share = 0.5;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
@@ -133,7 +139,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
     outline_over_bark_cloud_share, weak_on_bark_max_rms_px, leafy_edge_scatter_m,
     leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views, hidden_side_min_gain,
-    hidden_side_stand_min_stems)
+    hidden_side_stand_min_stems, hidden_side_min_seen_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

@@ -145,8 +145,10 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   // Cores that overlap are one stem: the one with both sides in most views stands first.
   std::vector<RefinedStem> refined;
   for (Stem& core : cores) refined.push_back(refine(std::move(core)));
-  std::ranges::stable_sort(
-      refined, [](const RefinedStem& a, const RefinedStem& b) { return a.whole && !b.whole; });
+  std::ranges::stable_sort(refined, [](const RefinedStem& a, const RefinedStem& b) {
+    if (a.whole != b.whole) return a.whole;
+    return a.stem.evidence.two_sided_views > b.stem.evidence.two_sided_views;
+  });
   int whole_cores = 0;
   for (RefinedStem& r : refined) {
     Stem& c = r.stem;
@@ -346,12 +348,10 @@ void BoundHiddenSides(const MeasureOptions& o, const PinholeCamera& camera,
     const double r = 0.5 * s.dbh_m;
     const int side = SideTowardNearerStem(*stems, s.centre_xy, r);
     if (side < 0) continue;
-    // The side toward the nearer stem, clear of it in enough views, measures it; a width not the
-    // fit's (no_silhouette: the cloud's) has no silhouette there.
+    // The side toward the nearer stem, clear of it in enough views (three, and a share of those
+    // that would show it: hidden_side_min_seen_share), measures it; a width not the fit's
+    // (no_silhouette: the cloud's) has no silhouette there.
     const int found = s.flags.Has(StemFlag::kNoSilhouette) ? 0 : e.clear_side_views[side];
-    spdlog::trace("stems: ({:.2f}, {:.2f}) its {} side toward a nearer stem: {} views clear of it",
-                  s.centre_xy.x(), s.centre_xy.y(), side == 0 ? "left" : "right", found);
-    if (found >= kViewsThatMeasure) continue;
     std::vector<Eigen::Vector3d> others;
     for (const Stem& k : *stems) {
       if (&k != &s) others.emplace_back(k.centre_xy.x(), k.centre_xy.y(), 0.5 * k.dbh_m);
@@ -361,6 +361,11 @@ void BoundHiddenSides(const MeasureOptions& o, const PinholeCamera& camera,
     // Where the width seen puts that side, views whose edge search should have found it did not:
     // the stem goes on behind it. (Where no view shows that side, nothing says it is wider.)
     const int open = ViewsShowingSide(o.tangent, views, s.centre_xy, r, side, breast_z);
+    spdlog::trace(
+        "stems: ({:.2f}, {:.2f}) its {} side toward a nearer stem: {} views clear of "
+        "it, {} would show it",
+        s.centre_xy.x(), s.centre_xy.y(), side == 0 ? "left" : "right", found, open);
+    if (found >= kViewsThatMeasure && found >= o.hidden_side_min_seen_share * open) continue;
     if (open - found < kViewsThatMeasure) continue;
     const double widest = WidestRadiusWithSideHidden(o.tangent, views, s.centre_xy, r, side,
                                                      breast_z, 0.5 * o.stems.max_diameter_m);

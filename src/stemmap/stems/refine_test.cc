@@ -621,6 +621,34 @@ TEST(ResolvePart, OfOverlappingCoresTheWholeOneStands) {
   EXPECT_EQ(out.from_cores, 1);
 }
 
+// Two cores of a part kept on its cloud, both showing both sides in most of their views, overlap:
+// a narrow one (a pair of lines on the stem's bark, or the stem's outline mixed with a farther
+// stem's edge beside it) and a wider one. The one with both sides in more views stands,
+// whichever comes first.
+TEST(ResolvePart, OfOverlappingWholeCoresTheOneTwoSidedInMoreViewsStands) {
+  for (const bool narrow_first : {true, false}) {
+    Stem part = Fitted(7.9, 2.6, 0.0, 0.0);
+    part.dbh_slice_m = 0.34;
+    Stem narrow = Fitted(7.92, 2.52, 0.14, 0.0), wide = Fitted(7.92, 2.69, 0.28, 0.0);
+    narrow.evidence.two_sided_views = 21;
+    wide.evidence.two_sided_views = 27;
+    part.alternatives = narrow_first ? std::vector{narrow, wide} : std::vector{wide, narrow};
+    auto refine = [&](Stem s) {
+      if (s.dbh_m == 0.0) {
+        s.dbh_m = 0.34;  // kept on the cloud
+        return RefinedStem{SilhouetteVerdict::kKeepCloud, std::move(s), false, false};
+      }
+      return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, true};
+    };
+    std::vector<Stem> kept;
+    const PartOutcome out = ResolvePart({}, part, refine, &kept);
+    SCOPED_TRACE(narrow_first ? "the narrow core first" : "the wide core first");
+    ASSERT_EQ(kept.size(), 1u);
+    EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.28);
+    EXPECT_EQ(out.from_cores, 1);
+  }
+}
+
 // A part kept on its cloud's width (its own fit neither near it nor two-sided in most views),
 // with one core under min_core_share of that width: stereo smeared a stem 1.5-1.7 times wide,
 // and the core is the stem when its own silhouettes show both sides in most of its views; a
