@@ -60,6 +60,10 @@ struct MeasureOptions {
   // both sides in at least half its views, on one circle to a couple of pixels (what a part's
   // core needs to stand alone). 0: not tried.
   double larger_cloud_only_max_rms_px = 0.5;
+  // Or where its bark lines up and its silhouettes are whole in the views where no nearer stem
+  // hid a side (RefinedStem::whole_where_open), at least min_dbh_cm wide: a stem a nearer one
+  // hides for part of the turn, as BarkConfirmsCloud counts a part's views.
+  bool larger_cloud_whole_where_open = true;
   // A fit over this many times the cloud's radius found silhouettes beyond anything the cloud
   // saw (a wide start that closed on a sapling and the stem behind it, or on two neighbours):
   // it stands only where the bark between them lines up to at least this correlation over
@@ -135,11 +139,12 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, ground, uncertainty, require_silhouette,
     keep_bark_confirmed_cloud, one_sided_max_over_cloud, one_sided_min_cloud_radius_m,
     min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
-    larger_cloud_only_max_rms_px, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
-    narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
-    outline_over_bark_cloud_share, weak_on_bark_max_rms_px, leafy_edge_scatter_m,
-    leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views, hidden_side_min_gain,
-    hidden_side_stand_min_stems, hidden_side_min_seen_share)
+    larger_cloud_only_max_rms_px, larger_cloud_whole_where_open, wide_fit_scale,
+    wide_fit_min_bark_ncc, loose_fit_rms_px, narrower_on_bark_two_sided_share,
+    outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share,
+    weak_on_bark_max_rms_px, leafy_edge_scatter_m, leafy_edge_scatter_px, leafy_edge_share,
+    sides_past_nearer_min_views, hidden_side_min_gain, hidden_side_stand_min_stems,
+    hidden_side_min_seen_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

@@ -113,8 +113,11 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   std::vector<Stem> larger = std::exchange(part.larger_cloud_part, {});
   const double part_dbh_m = 2 * CloudRadius(part);
   const bool mixed_part_core = part.mixed_part_core;
-  auto [verdict, s, clean, whole, agrees, sharp, seen_apart, sides_past_nearer] =
-      refine(std::move(part));
+  RefinedStem part_refined = refine(std::move(part));
+  const SilhouetteVerdict verdict = part_refined.verdict;
+  Stem& s = part_refined.stem;
+  const bool clean = part_refined.clean, whole = part_refined.whole;
+  const bool sides_past_nearer = part_refined.sides_past_nearer;
   // A core of a part no stem as a whole stands, as any part's core, on clean silhouettes only.
   if (mixed_part_core && verdict == SilhouetteVerdict::kUse && !clean) {
     spdlog::debug(
@@ -257,12 +260,22 @@ int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidate
     if (taken) continue;
     RefinedStem r = refine(std::move(c));
     spdlog::debug(
-        "stems: larger cloud's stem alone at ({:.2f}, {:.2f}): verdict {}, sharp {}, whole {}",
-        r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp, r.whole);
+        "stems: larger cloud's stem alone at ({:.2f}, {:.2f}): verdict {}, sharp {}, whole {}, "
+        "seen apart {}, whole where no nearer stem hid a side {}",
+        r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp, r.whole,
+        r.seen_apart, r.whole_where_open);
     // Both sides in half the views to a couple of pixels stand as a part's core would alone.
     // Straight behind a listed stem, each side in views of its own on one circle stands too:
-    // the nearer stem hides one side from each end of the arm (SidesSeenApart).
-    if (r.verdict != SilhouetteVerdict::kUse || !(r.sharp || r.whole || r.seen_apart)) continue;
+    // the nearer stem hides one side from each end of the arm (SidesSeenApart). Where its bark
+    // lines up, both sides in half the views where no nearer stem hid one will do, for a stem
+    // the list keeps (a sapling so found would stand as a nearer stem that farther fits are
+    // straight behind).
+    const bool whole_where_open = o.larger_cloud_whole_where_open && r.whole_where_open &&
+                                  r.stem.dbh_m >= 0.01 * o.min_dbh_cm;
+    if (r.verdict != SilhouetteVerdict::kUse ||
+        !(r.sharp || r.whole || r.seen_apart || whole_where_open)) {
+      continue;
+    }
     r.stem.flags.Set(StemFlag::kSilhouetteOnly);
     occluders->emplace_back(r.stem.centre_xy.x(), r.stem.centre_xy.y(), 0.5 * r.stem.dbh_m);
     kept->push_back(std::move(r.stem));
@@ -688,7 +701,10 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }
-    return RefinedStem{verdict, std::move(s), clean, whole, agrees, sharp, seen_apart};
+    RefinedStem refined{verdict, std::move(s), clean, whole, agrees, sharp, seen_apart};
+    refined.whole_where_open =
+        clean && bark.ok && f.open_views < f.tried_views && 2 * f.two_sided_views >= f.open_views;
+    return refined;
   };
   auto refine = [&](Stem s) { return refine_stem(std::move(s), true); };
   const size_t n_larger_only = larger_cloud_only.size();

@@ -66,6 +66,10 @@ struct RefinedStem {
   // Straight behind a listed stem, kept on its cloud where its sides showed one at a time
   // (ShowsSidesPastNearerStem).
   bool sides_past_nearer = false;
+  // Its bark lines up on the fit, which shows both sides, on one circle to a couple of pixels,
+  // in half the views where no nearer stem hid a side (TangentFit::open_views), though not in
+  // half of all it was tried in: a nearer stem hides a side in the others.
+  bool whole_where_open = false;
 };
 struct PartOutcome {
   int fitted = 0;      // stems placed by their silhouettes
