@@ -67,8 +67,8 @@ struct RefinedStem {
   // (ShowsSidesPastNearerStem).
   bool sides_past_nearer = false;
   // Its bark lines up on the fit, which shows both sides, on one circle to a couple of pixels,
-  // in half the views where no nearer stem hid a side (TangentFit::open_views), though not in
-  // half of all it was tried in: a nearer stem hides a side in the others.
+  // in half the views where no nearer stem hid a side (TangentFit::open_views), some of the
+  // views it was tried in having a side hidden so.
   bool whole_where_open = false;
 };
 struct PartOutcome {
