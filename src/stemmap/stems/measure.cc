@@ -74,6 +74,10 @@ void MeasureOptions::Check() const {
     throw InputError(
         "the views a stem behind a nearer one shows its sides in must not be negative");
   }
+  if (one_side_past_nearer_min_views < 0) {
+    throw InputError(
+        "the views a stem behind a nearer one shows its one side in must not be negative");
+  }
   if (!(hidden_side_min_gain == 0 || hidden_side_min_gain >= 1)) {
     throw InputError("the gain a hidden side's widest width must reach must be 0 or at least 1");
   }

@@ -115,6 +115,14 @@ struct MeasureOptions {
   // TangentOptions::min_views_each_side, which asks both sides for that many. Kept on its cloud
   // (the larger cloud's where that is wider), flagged occluded. 0: off.
   int sides_past_nearer_min_views = 6;
+  // A part straight behind a listed stem, whose cloud's circle shows no sides past it (above), and
+  // whose fit held on the face its cloud saw shows one side only, stands on that side where the
+  // side shows in at least this many views, each clear of every nearer stem's outline, on one
+  // circle within TangentOptions::narrow_max_rms_px, and the other side hides where the circle
+  // puts it in all but a few views that show it (OneSideSeenPastNearer): the nearer stem hides
+  // that side from every point of the arm (a stem wider than it, at the edge of its outline seen
+  // from the plot centre). Flagged occluded and one-sided. 0: off.
+  int one_side_past_nearer_min_views = 8;
   // A stem a nearer one hides one side of in every view that could show it (both silhouettes in
   // fewer than three views, the hidden one in fewer than TangentOptions::min_views_each_side) is
   // as wide as its seen side and cloud give at least, and at most as wide as keeps that side
@@ -143,8 +151,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     wide_fit_min_bark_ncc, loose_fit_rms_px, narrower_on_bark_two_sided_share,
     outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share,
     weak_on_bark_max_rms_px, leafy_edge_scatter_m, leafy_edge_scatter_px, leafy_edge_share,
-    sides_past_nearer_min_views, hidden_side_min_gain, hidden_side_stand_min_stems,
-    hidden_side_min_seen_share)
+    sides_past_nearer_min_views, one_side_past_nearer_min_views, hidden_side_min_gain,
+    hidden_side_stand_min_stems, hidden_side_min_seen_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

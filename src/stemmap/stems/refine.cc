@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -423,9 +424,22 @@ bool NoWiderThanANearerStemItIsBehind(std::span<const Stem> nearer, const Eigen:
   return widest > 0 && d > radius_m && std::asin(radius_m / d) <= widest;
 }
 
+bool OneSideSeenPastNearer(const TangentOptions& o, const TangentViews& views,
+                           const TangentFit& fit, double breast_z, double px_m, int min_views) {
+  if (min_views <= 0 || !fit.ok || fit.rms_m >= o.narrow_max_rms_px * px_m) return false;
+  const std::array<int, 2> seen = {fit.SideViews(0), fit.SideViews(1)};
+  const int side = seen[0] >= seen[1] ? 0 : 1, hidden = 1 - side;
+  if (seen[hidden] >= o.min_views_each_side || seen[side] < min_views) return false;
+  if (SideViewsClearOfNearerStems(o, views, fit, breast_z)[side] < seen[side]) return false;
+  // Where the circle puts the other side clear of the nearer stems, it shows.
+  const int open = ViewsShowingSide(o, views, fit.centre, fit.radius_m, hidden, breast_z);
+  return open - seen[hidden] < o.min_views_each_side;
+}
+
 bool HoldOnFaceBehindNearer(const Stem& part, double radius0, std::span<const Stem> nearer,
                             const TangentOptions& topt, const TangentViews& views, double breast_z,
-                            double px_m, TangentFit* fit) {
+                            double px_m, int one_side_min_views,
+                            const std::function<bool()>& one_side_may_stand, TangentFit* fit) {
   const bool one_side_per_view = !fit->ok || fit->two_sided_views < 3;
   const double widest_ahead = WidestNearerStemAhead(nearer, part.centre_xy);
   if (!one_side_per_view || part.weak_support || part.face_range_m <= 0 ||
@@ -438,13 +452,16 @@ bool HoldOnFaceBehindNearer(const Stem& part, double radius0, std::span<const St
   const double max_radius_m = part.face_range_m * hidden_sin / (1 - hidden_sin);
   TangentFit held = FitSidesOnFace(topt, views, part.centre_xy, radius0, max_radius_m,
                                    part.face_range_m, breast_z);
-  if (!SidesSeenApart(topt, held, px_m) ||
-      !NoWiderThanANearerStemItIsBehind(nearer, held.centre, held.radius_m)) {
-    return false;
-  }
-  spdlog::debug("stems: ({:.2f}, {:.2f}) held on its face {:.2f} m out: ({:.2f}, {:.2f}) r {:.3f}",
-                part.centre_xy.x(), part.centre_xy.y(), part.face_range_m, held.centre.x(),
-                held.centre.y(), held.radius_m);
+  const bool apart = SidesSeenApart(topt, held, px_m) &&
+                     NoWiderThanANearerStemItIsBehind(nearer, held.centre, held.radius_m);
+  const bool one_side =
+      !apart && OneSideSeenPastNearer(topt, views, held, breast_z, px_m, one_side_min_views) &&
+      one_side_may_stand();
+  if (!apart && !one_side) return false;
+  spdlog::debug(
+      "stems: ({:.2f}, {:.2f}) held on its face {:.2f} m out: ({:.2f}, {:.2f}) r {:.3f}, {}",
+      part.centre_xy.x(), part.centre_xy.y(), part.face_range_m, held.centre.x(), held.centre.y(),
+      held.radius_m, apart ? "sides seen apart" : "one side seen past the nearer stem");
   *fit = std::move(held);
   return true;
 }
@@ -573,7 +590,19 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const bool asked =
         last_asked.ok && last_asked.centre == f.centre && last_asked.radius_m == f.radius_m;
     const double px_m = s.centre_xy.norm() / camera.fx;
-    const bool on_face = HoldOnFaceBehindNearer(s, r0, kept, topt, views, breast_z, px_m, &f);
+    // Behind a nearer stem, the views that show the sides where the cloud's circle predicts them
+    // (SideViewsAt; none where the circle is wider than the nearer stem or its support weak).
+    auto cloud_side_views = [&] {
+      const bool may_show = o.sides_past_nearer_min_views > 0 && !s.weak_support &&
+                            NoWiderThanANearerStemItIsBehind(kept, s.centre_xy, r0);
+      return may_show ? SideViewsAt(topt, views, s.centre_xy, r0, breast_z)
+                      : std::array<int, 2>{0, 0};
+    };
+    // One side alone, seen past the nearer stem, stands where the cloud's circle does not show
+    // both (ShowsSidesPastNearerStem, below).
+    const bool on_face = HoldOnFaceBehindNearer(
+        s, r0, kept, topt, views, breast_z, px_m, o.one_side_past_nearer_min_views,
+        [&] { return !ShowsSidesPastNearerStem(o, s, r0, kept, cloud_side_views()); }, &f);
     const TangentFit outline = f;
     const BarkDepth bark =
         CheckFitOnBark(bark_options, topt, views, breast_z, &f, asked ? &last_bark : nullptr);
@@ -651,11 +680,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       leaves.emplace_back(f.centre.x(), f.centre.y(), f.radius_m);
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
     }
-    if (behind_nearer && !StandsOnItsOwnSilhouettes(o.tangent, f, px_m)) {
-      const bool may_show = o.sides_past_nearer_min_views > 0 && !s.weak_support &&
-                            NoWiderThanANearerStemItIsBehind(kept, s.centre_xy, r0);
-      const std::array<int, 2> side_views =
-          may_show ? SideViewsAt(topt, views, s.centre_xy, r0, breast_z) : std::array<int, 2>{0, 0};
+    // (A fit held on its face stands on its own sides; once the bark vetoed it, it does not.)
+    if (behind_nearer && !(on_face && f.ok) && !StandsOnItsOwnSilhouettes(o.tangent, f, px_m)) {
+      const std::array<int, 2> side_views = cloud_side_views();
       if (ShowsSidesPastNearerStem(o, s, r0, kept, side_views)) {
         spdlog::debug(
             "stems: ({:.2f}, {:.2f}) kept on its cloud: straight behind a listed stem, its sides "
@@ -668,8 +695,15 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
         kept_on_cloud.stem.evidence.sides_apart = true;
         return kept_on_cloud;
       }
-      spdlog::debug("stems: ({:.2f}, {:.2f}) dropped: straight behind a listed stem, no clean fit",
-                    s.centre_xy.x(), s.centre_xy.y());
+      spdlog::debug(
+          "stems: ({:.2f}, {:.2f}) dropped: straight behind a listed stem, no clean fit (fit ok {} "
+          "at ({:.2f}, {:.2f}) r {:.3f} r0 {:.3f}, rays {}, sides {}/{}, clear {}/{}, rms {:.2f} "
+          "px, "
+          "bark ok {} ncc {:.2f})",
+          s.centre_xy.x(), s.centre_xy.y(), f.ok, f.centre.x(), f.centre.y(), f.radius_m, r0,
+          f.rays, f.ok ? f.SideViews(0) : 0, f.ok ? f.SideViews(1) : 0,
+          s.evidence.clear_side_views[0], s.evidence.clear_side_views[1],
+          f.ok ? f.rms_m / px_m : 0.0, bark.ok, bark.peak_ncc);
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
     }
     if (verdict != SilhouetteVerdict::kUse) {

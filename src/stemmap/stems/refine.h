@@ -133,14 +133,25 @@ bool NoWiderThanANearerStemItIsBehind(std::span<const Stem> nearer, const Eigen:
 bool ShowsSidesPastNearerStem(const MeasureOptions& o, const Stem& part, double radius_m,
                               std::span<const Stem> nearer, const std::array<int, 2>& side_views);
 
+// Whether `fit` shows one side only (the other in fewer than TangentOptions::min_views_each_side
+// views), in at least min_views views, each clear of every nearer stem's outline
+// (SideViewsClearOfNearerStems), on one circle within narrow_max_rms_px (px_m: metres a pixel
+// spans at the stem); 0 views: never. The nearer stem hides the other side from every point of the
+// arm; a smear of the nearer stem's points carries that stem's silhouettes, along its outline.
+bool OneSideSeenPastNearer(const TangentOptions& o, const TangentViews& views,
+                           const TangentFit& fit, double breast_z, double px_m, int min_views);
+
 // A part straight behind a listed stem whose fit rests on one side per view, or which has none
 // (`fit`): the fit FitSidesOnFace holds on the face its cloud saw replaces `fit` when its sides
 // show apart (SidesSeenApart) and it is no wider, from the plot centre, than a nearer stem it is
-// behind (one wider shows both sides past it in the same views). Not for a part on weak support,
-// whose sliver of surface may be the nearer stem's smear. Returns whether it replaced `fit`.
+// behind (one wider shows both sides past it in the same views); or when it shows one side only
+// (OneSideSeenPastNearer, from one_side_min_views views; 0: never) and `one_side_may_stand` says
+// so (asked only then). Not for a part on weak support, whose sliver of surface may be the
+// nearer stem's smear. Returns whether it replaced `fit`.
 bool HoldOnFaceBehindNearer(const Stem& part, double radius0, std::span<const Stem> nearer,
                             const TangentOptions& topt, const TangentViews& views, double breast_z,
-                            double px_m, TangentFit* fit);
+                            double px_m, int one_side_min_views,
+                            const std::function<bool()>& one_side_may_stand, TangentFit* fit);
 
 // The tangent fit checked on the bark: its distance from the bark (returned), and a fit whose bark
 // lines up at no distance (correlation under min_surface_ncc over enough pairs) or best at the end
