@@ -262,9 +262,11 @@ int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidate
     RefinedStem r = refine(std::move(c));
     spdlog::debug(
         "stems: larger cloud's stem alone at ({:.2f}, {:.2f}): verdict {}, sharp {}, whole {}, "
-        "seen apart {}, whole where no nearer stem hid a side {}",
+        "seen apart {}, whole where no nearer stem hid a side {}; sides clear of nearer stems in "
+        "{} and {} views",
         r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp, r.whole,
-        r.seen_apart, r.whole_where_open);
+        r.seen_apart, r.whole_where_open, r.stem.evidence.clear_side_views[0],
+        r.stem.evidence.clear_side_views[1]);
     // Both sides in half the views to a couple of pixels stand as a part's core would alone.
     // Straight behind a listed stem, each side in views of its own on one circle stands too:
     // the nearer stem hides one side from each end of the arm (SidesSeenApart). Where its bark
@@ -287,6 +289,12 @@ int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidate
 
 bool HasSharpSilhouettes(const TangentFit& f, double max_rms_px, double px_m) {
   return f.ok && f.two_sided_views >= 3 && f.rms_m < max_rms_px * px_m;
+}
+
+bool SidesSeenApartPastNearer(const TangentOptions& o, const TangentFit& f,
+                              const std::array<int, 2>& clear_side_views, double px_m) {
+  return SidesSeenApart(o, f, px_m) &&
+         std::min(clear_side_views[0], clear_side_views[1]) >= o.min_views_each_side;
 }
 
 bool StandsOnItsOwnSilhouettes(const TangentOptions& o, const TangentFit& f, double px_m) {
@@ -662,10 +670,12 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const bool behind_nearer = InShadowOfNearerStem(kept, f.ok ? f.centre : s.centre_xy);
     // A core stands alone only on clean silhouettes: both sides in a quarter of its views, on
     // one circle to a couple of pixels (a shrub's twigs give loose, one-sided edges). Straight
-    // behind a nearer stem, each side in several views of its own will do (SidesSeenApart): the
-    // nearer stem hides one side from each end of the arm. Elsewhere, a stem shows both sides
-    // in the same views, and sides only ever seen apart are the edges of two things.
-    const bool seen_apart = behind_nearer && SidesSeenApart(topt, f, px_m);
+    // behind a nearer stem, each side in several views of its own, clear of its outline, will do
+    // (SidesSeenApartPastNearer): the nearer stem hides one side from each end of the arm.
+    // Elsewhere, a stem shows both sides in the same views, and sides only ever seen apart are
+    // the edges of two things.
+    const bool seen_apart =
+        behind_nearer && SidesSeenApartPastNearer(topt, f, s.evidence.clear_side_views, px_m);
     s.evidence.sides_apart = seen_apart || on_face;
     const bool clean =
         (f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m) || seen_apart;

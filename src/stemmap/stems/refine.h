@@ -114,6 +114,14 @@ bool HasSharpSilhouettes(const TangentFit& fit, double max_rms_px, double px_m);
 // centre: farther than its far side and within its angular width.
 bool InShadowOfNearerStem(std::span<const Stem> nearer, const Eigen::Vector2d& centre);
 
+// Whether a fit straight behind a nearer stem shows each side in views of its own
+// (SidesSeenApart), each clear of the nearer stems' outlines (`clear_side_views`,
+// SideViewsClearOfNearerStems) in min_views_each_side of them: edges found along a nearer
+// stem's outline are that stem's, and a smear of its points straight behind it gathers them
+// from either end of the arm (`px_m`: one pixel's footprint at the stem).
+bool SidesSeenApartPastNearer(const TangentOptions& o, const TangentFit& fit,
+                              const std::array<int, 2>& clear_side_views, double px_m);
+
 // Whether a fit rests on silhouettes of its stem's own, not on a nearer stem's edges (`px_m`: one
 // pixel's footprint at the stem).
 bool StandsOnItsOwnSilhouettes(const TangentOptions& o, const TangentFit& fit, double px_m);

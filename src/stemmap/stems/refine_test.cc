@@ -181,6 +181,29 @@ TEST(StandsOnItsOwnSilhouettes, EachSideInViewsOfItsOwn) {
   EXPECT_FALSE(StandsOnItsOwnSilhouettes(off, f, px_m));
 }
 
+// Sides seen one at a time past a nearer stem count where each shows clear of its outline: a
+// smear 0.6 m behind a 10-cm stem 8 m out had both sides in 15 views, on one circle to 0.9 px,
+// but clear of the stem's outline in 5 and 2 of them (its own edges).
+TEST(SidesSeenApartPastNearer, EachSideClearOfTheNearerStemsOutline) {
+  const TangentOptions o;
+  const double px_m = 0.006;
+  TangentFit f;
+  f.ok = true;
+  f.rms_m = 0.0054;  // 0.9 px
+  for (int k = 0; k < 30; ++k) {
+    f.silhouettes.push_back(
+        {k / 2, k % 2, Eigen::Vector2d::UnitY(), Eigen::Vector2d::Zero(), 0.0, 0.0});
+  }
+  f.rays = static_cast<int>(f.silhouettes.size());
+  f.views = 15;
+  EXPECT_TRUE(SidesSeenApartPastNearer(o, f, {15, 15}, px_m));
+  EXPECT_TRUE(SidesSeenApartPastNearer(o, f, {4, 4}, px_m));
+  EXPECT_FALSE(SidesSeenApartPastNearer(o, f, {5, 2}, px_m));
+  EXPECT_FALSE(SidesSeenApartPastNearer(o, f, {0, 15}, px_m));
+  f.rms_m = 0.009;  // 1.5 px: not one circle
+  EXPECT_FALSE(SidesSeenApartPastNearer(o, f, {15, 15}, px_m));
+}
+
 TEST(HasSharpSilhouettes, BothSidesInThreeViewsOnOneCircleToHalfAPixel) {
   // A thin stem far out behind a wider one: 10 rays, 4 views two-sided, 1.6 mm.
   const double px_m = 0.0058;
