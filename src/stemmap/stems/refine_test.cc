@@ -123,6 +123,22 @@ TEST(InShadowOfNearerStem, APointStraightBehindAListedStem) {
   EXPECT_FALSE(InShadowOfNearerStem({}, {-2.96, 5.66}));
 }
 
+// A fit whose silhouettes are the given (keyframe, side) rays, over `views` keyframes, none
+// two-sided, scattering rms_m about its circle.
+TangentFit FitOnSilhouettes(const std::vector<std::array<int, 2>>& rays, int views, double rms_m) {
+  TangentFit f;
+  f.ok = true;
+  f.rms_m = rms_m;
+  for (const auto& [keyframe, side] : rays) {
+    f.silhouettes.push_back(
+        {keyframe, side, Eigen::Vector2d::UnitY(), Eigen::Vector2d::Zero(), 0.0, 0.0});
+  }
+  f.rays = static_cast<int>(f.silhouettes.size());
+  f.views = views;
+  f.two_sided_views = 0;
+  return f;
+}
+
 // What may stand straight behind a nearer stem: both sides in three views on one circle, or
 // many silhouettes (26, both sides in two views, as a large stem seen past a nearer one gives)
 // to within a pixel.
@@ -153,17 +169,9 @@ TEST(StandsOnItsOwnSilhouettes, TwoSidedViewsOrManyTightSilhouettes) {
 TEST(StandsOnItsOwnSilhouettes, EachSideInViewsOfItsOwn) {
   const TangentOptions o;
   const double px_m = 0.006;
-  TangentFit f;
-  f.ok = true;
-  f.rms_m = 0.0045;  // 0.75 px
-  for (int k = 0; k < 10; ++k) {
-    const int side = k < 5 ? 0 : 1;
-    f.silhouettes.push_back(
-        {10 * side + k, side, Eigen::Vector2d::UnitY(), Eigen::Vector2d::Zero(), 0.0, 0.0});
-  }
-  f.rays = static_cast<int>(f.silhouettes.size());
-  f.views = 10;
-  f.two_sided_views = 0;
+  std::vector<std::array<int, 2>> rays;
+  for (int k = 0; k < 10; ++k) rays.push_back({10 * (k < 5 ? 0 : 1) + k, k < 5 ? 0 : 1});
+  TangentFit f = FitOnSilhouettes(rays, 10, 0.0045);  // 0.75 px
   EXPECT_TRUE(StandsOnItsOwnSilhouettes(o, f, px_m));
   f.rms_m = 0.009;  // 1.5 px: edges of what stands around it
   EXPECT_FALSE(StandsOnItsOwnSilhouettes(o, f, px_m));
@@ -187,15 +195,9 @@ TEST(StandsOnItsOwnSilhouettes, EachSideInViewsOfItsOwn) {
 TEST(SidesSeenApartPastNearer, EachSideClearOfTheNearerStemsOutline) {
   const TangentOptions o;
   const double px_m = 0.006;
-  TangentFit f;
-  f.ok = true;
-  f.rms_m = 0.0054;  // 0.9 px
-  for (int k = 0; k < 30; ++k) {
-    f.silhouettes.push_back(
-        {k / 2, k % 2, Eigen::Vector2d::UnitY(), Eigen::Vector2d::Zero(), 0.0, 0.0});
-  }
-  f.rays = static_cast<int>(f.silhouettes.size());
-  f.views = 15;
+  std::vector<std::array<int, 2>> rays;
+  for (int k = 0; k < 30; ++k) rays.push_back({k / 2, k % 2});
+  TangentFit f = FitOnSilhouettes(rays, 15, 0.0054);  // 0.9 px
   EXPECT_TRUE(SidesSeenApartPastNearer(o, f, {15, 15}, px_m));
   EXPECT_TRUE(SidesSeenApartPastNearer(o, f, {4, 4}, px_m));
   EXPECT_FALSE(SidesSeenApartPastNearer(o, f, {5, 2}, px_m));
