@@ -46,6 +46,13 @@ void MeasureOptions::Check() const {
   if (!(loose_fit_rms_px > 0)) {
     throw InputError("the rms beyond which a narrower fit is loose must be positive");
   }
+  if (!(tight_fit_rms_px > 0 && tight_fit_rms_px <= loose_fit_rms_px)) {
+    throw InputError(
+        "the rms of a tight fit must be positive and no more than that of a loose one");
+  }
+  if (!(loose_wider_max_over_cloud >= 1)) {
+    throw InputError("the width over the cloud's a loose wider fit may reach must be at least 1");
+  }
   if (!(narrower_on_bark_two_sided_share >= 0 && narrower_on_bark_two_sided_share <= 0.5)) {
     throw InputError(
         "the two-sided share of a narrower fit whose bark lines up must lie in [0, 0.5]");

@@ -75,6 +75,14 @@ struct MeasureOptions {
   // furrows, a shadow's border, a neighbour's edge in some views), and the points' width,
   // measured on the stem's surface, stands.
   double loose_fit_rms_px = 3.0;
+  // A fit whose rays meet its circle to within this rms (px at the stem) agrees to about a pixel:
+  // wider than the cloud, only such a fit with both sides in three views outranks the points.
+  double tight_fit_rms_px = 1.2;
+  // Within this many times the cloud's radius a wider fit counts as near the cloud's width even
+  // when its rays agree less tightly than tight_fit_rms_px; beyond it such a fit caught edges
+  // beside the stem (a farther stem's outline next to its side in some views, a sapling's) and
+  // drifted outward with them, and the points' width stands.
+  double loose_wider_max_over_cloud = 1.25;
   // A fit narrower than the cloud, down to TangentOptions::narrow_min_share of it, outranks the
   // cloud's width when both its sides show in half the views that tried it, on one circle to
   // about a pixel; where its bark lines up too (BarkDepth::ok), in this share of them.
@@ -148,11 +156,12 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     keep_bark_confirmed_cloud, one_sided_max_over_cloud, one_sided_min_cloud_radius_m,
     min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
     larger_cloud_only_max_rms_px, larger_cloud_whole_where_open, wide_fit_scale,
-    wide_fit_min_bark_ncc, loose_fit_rms_px, narrower_on_bark_two_sided_share,
-    outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share,
-    weak_on_bark_max_rms_px, leafy_edge_scatter_m, leafy_edge_scatter_px, leafy_edge_share,
-    sides_past_nearer_min_views, one_side_past_nearer_min_views, hidden_side_min_gain,
-    hidden_side_stand_min_stems, hidden_side_min_seen_share)
+    wide_fit_min_bark_ncc, loose_fit_rms_px, tight_fit_rms_px, loose_wider_max_over_cloud,
+    narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
+    outline_over_bark_cloud_share, weak_on_bark_max_rms_px, leafy_edge_scatter_m,
+    leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views,
+    one_side_past_nearer_min_views, hidden_side_min_gain, hidden_side_stand_min_stems,
+    hidden_side_min_seen_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

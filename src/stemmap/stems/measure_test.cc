@@ -32,6 +32,20 @@ TEST(MeasureOptions, AOneSidedBoundBelowTheCloudIsRejected) {
   EXPECT_THROW(o.Check(), InputError);
 }
 
+TEST(MeasureOptions, TheTightAndLooseFitSettingsAreChecked) {
+  MeasureOptions o;
+  o.tight_fit_rms_px = 0;
+  EXPECT_EQ(CheckMessage(o),
+            "the rms of a tight fit must be positive and no more than that of a loose one");
+  o.tight_fit_rms_px = o.loose_fit_rms_px + 0.5;
+  EXPECT_EQ(CheckMessage(o),
+            "the rms of a tight fit must be positive and no more than that of a loose one");
+  o = MeasureOptions();
+  o.loose_wider_max_over_cloud = 0.95;
+  EXPECT_EQ(CheckMessage(o),
+            "the width over the cloud's a loose wider fit may reach must be at least 1");
+}
+
 TEST(MeasureOptions, TheLargerCloudsSettingsAreChecked) {
   MeasureOptions o;
   o.larger_cloud_part_gap_m = -0.1;

@@ -61,8 +61,11 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   // about a pixel outrank them, and a part with little surface at breast height needs them.
   const double r0 = CloudRadius(s);
   const bool loose_narrower = f.radius_m < r0 && f.rms_m > o.loose_fit_rms_px * px_m;
-  const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01 && !loose_narrower;
-  const bool two_sided = f.two_sided_views >= 3 && f.rms_m < 1.2 * px_m;
+  const bool tight = f.rms_m < o.tight_fit_rms_px * px_m;
+  const bool loose_wider = f.radius_m > o.loose_wider_max_over_cloud * r0 && !tight;
+  const bool near_cloud =
+      std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01 && !loose_narrower && !loose_wider;
+  const bool two_sided = f.two_sided_views >= 3 && tight;
   const bool wider_two_sided =
       two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
   const bool whole_on_bark = bark_lines_up && 2 * f.two_sided_views >= f.tried_views &&
@@ -84,9 +87,9 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
     // Unless it stays tangent to one circle across views to about a pixel, on a part the cloud
     // saw as a real stem: then a nearer stem hid the rest of it from the stereo pairs, and the
     // one side seen is a better width than the points.
-    const bool tight = f.rms_m < 1.2 * px_m && r0 >= o.one_sided_min_cloud_radius_m &&
-                       f.radius_m < o.tangent.WidestFitScale() * r0;
-    return tight ? SilhouetteVerdict::kUse : SilhouetteVerdict::kKeepCloud;
+    const bool held = tight && r0 >= o.one_sided_min_cloud_radius_m &&
+                      f.radius_m < o.tangent.WidestFitScale() * r0;
+    return held ? SilhouetteVerdict::kUse : SilhouetteVerdict::kKeepCloud;
   }
   // A smeared part's width across the line of sight is rough, but not off by half: a fit beyond
   // half or twice it caught something else (a neighbour, one side of the stem), though the
@@ -105,6 +108,14 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
     return SilhouetteVerdict::kDrop;
   }
   return SilhouetteVerdict::kKeepCloud;
+}
+
+bool OutlinesTheStemInMoreViews(const Stem& core, const Stem& fit) {
+  const bool overlaps = (core.centre_xy - fit.centre_xy).norm() < 0.5 * (core.dbh_m + fit.dbh_m);
+  const auto share = [](const FitEvidence& e) {
+    return e.tried_views > 0 ? static_cast<double>(e.two_sided_views) / e.tried_views : 0.0;
+  };
+  return overlaps && share(core.evidence) > share(fit.evidence);
 }
 
 PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
@@ -173,8 +184,11 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
                 s.centre_xy.x(), s.centre_xy.y(), s.dbh_m, whole, from_cores, cores.size(),
                 whole_cores);
   // One core alone replaces the part's fit only when it shows both sides in most of its views
-  // and the part's fit does not: that fit caught what stands beside the stem.
-  const bool one_whole_core = from_cores == 1 && whole_cores == 1 && !whole;
+  // and the part's fit does not (that fit caught what stands beside the stem), or when both
+  // outline one stem and the core's shows both sides in more of its views: a narrower circle
+  // inside a stem matches lines of its bark in some views, its outline matches in nearly all.
+  const bool one_whole_core = from_cores == 1 && whole_cores == 1 &&
+                              (!whole || OutlinesTheStemInMoreViews(kept->back(), s));
   if (narrow_in_wide && from_cores < 2 && !one_whole_core) {
     // Fewer than two: the whole part's fit stands.
     kept->resize(before);

@@ -76,6 +76,9 @@ struct PartOutcome {
   int from_cores = 0;  // of which the part's dense cores (Stem::alternatives)
   int dropped = 0;     // parts that are no stem
 };
+// Whether `core` and `fit` overlap (two circles of one stem) and `core` shows both sides in a
+// larger share of the views it was tried in (FitEvidence).
+bool OutlinesTheStemInMoreViews(const Stem& core, const Stem& fit);
 // What one part of the cloud becomes, appended to `kept`: the stem its silhouettes fit, the stems
 // its cores make, the stem of its cloud, or nothing. `refine` judges one stem by its silhouettes.
 // A core of a part no stem as a whole (Stem::mixed_part_core) becomes a stem only where its

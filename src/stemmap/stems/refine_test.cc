@@ -659,6 +659,52 @@ TEST(ResolvePart, OneWholeCoreReplacesAPartialFitOfItsPart) {
   EXPECT_EQ(out.from_cores, 1);
 }
 
+// A part smeared wide (33 cm) whose own fit, a 17.6-cm circle inside the stem, shows both sides
+// in 12 of 23 views, and whose core's fit, a 30-cm circle over it, in more or fewer: both
+// outline one stem, and the one that shows both sides in more of its views stands. A second
+// core (a sliver) fits nothing. Swept over the core's two-sided views.
+TEST(ResolvePart, OfAPartsFitAndAWholeCoreOverItTheOneTwoSidedInMoreViewsStands) {
+  for (const int core_two_sided : {12, 13, 17, 21, 23}) {
+    Stem part = Fitted(7.32, 2.25, 0.0, 0.0);
+    part.dbh_slice_m = 0.332;
+    part.alternatives = {Fitted(7.03, 2.29, 0.0, 0.0), Fitted(7.29, 2.53, 0.0, 0.0)};
+    auto refine = [&](Stem s) {
+      const bool is_part = (s.centre_xy - part.centre_xy).norm() < 1e-9;
+      const bool sliver = (s.centre_xy - Eigen::Vector2d(7.29, 2.53)).norm() < 1e-9;
+      if (sliver) return RefinedStem{SilhouetteVerdict::kDrop, std::move(s)};
+      s.centre_xy = is_part ? Eigen::Vector2d(7.14, 2.24) : Eigen::Vector2d(7.15, 2.30);
+      s.dbh_m = s.dbh_tangent_m = is_part ? 0.176 : 0.30;
+      s.evidence.tried_views = 23;
+      s.evidence.two_sided_views = is_part ? 12 : core_two_sided;
+      return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, true};
+    };
+    std::vector<Stem> kept;
+    const PartOutcome out = ResolvePart({}, part, refine, &kept);
+    const bool core_stands = core_two_sided > 12;
+    ASSERT_EQ(kept.size(), 1u) << core_two_sided << " two-sided views";
+    EXPECT_DOUBLE_EQ(kept[0].dbh_m, core_stands ? 0.30 : 0.176) << core_two_sided;
+    EXPECT_EQ(out.from_cores, core_stands ? 1 : 0) << core_two_sided;
+  }
+}
+
+TEST(OutlinesTheStemInMoreViews, OverlappingAndTwoSidedInALargerShareOfItsViews) {
+  Stem core = Fitted(7.15, 2.30, 0.30, 0.0), fit = Fitted(7.14, 2.24, 0.176, 0.0);
+  core.evidence.tried_views = 20;
+  core.evidence.two_sided_views = 15;
+  fit.evidence.tried_views = 23;
+  fit.evidence.two_sided_views = 12;
+  EXPECT_TRUE(OutlinesTheStemInMoreViews(core, fit));
+  EXPECT_FALSE(OutlinesTheStemInMoreViews(fit, core));
+  core.evidence.two_sided_views = 10;  // 0.50 of its views against 0.52
+  EXPECT_FALSE(OutlinesTheStemInMoreViews(core, fit));
+  core.evidence.two_sided_views = 15;
+  core.centre_xy = {7.14, 2.55};  // 0.31 m apart, radii 0.24 m together: two stems
+  EXPECT_FALSE(OutlinesTheStemInMoreViews(core, fit));
+  core.centre_xy = {7.15, 2.30};
+  core.evidence = {};  // no silhouette fit
+  EXPECT_FALSE(OutlinesTheStemInMoreViews(core, fit));
+}
+
 // Two cores of one stem overlap: the one with both sides in most of its views stands, though it
 // comes second.
 TEST(ResolvePart, OfOverlappingCoresTheWholeOneStands) {
@@ -824,6 +870,28 @@ TEST(JudgeSilhouetteFit, ALooseNarrowerFitKeepsTheCloudWhateverTheNarrowing) {
       c.fit.two_sided_views = 2;  // neither two-sided rule applies: the cloud's tolerance does
       const SilhouetteVerdict want =
           rms_px > o.loose_fit_rms_px ? SilhouetteVerdict::kKeepCloud : SilhouetteVerdict::kUse;
+      EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), want)
+          << "share " << share << " rms " << rms_px << " px";
+    }
+  }
+}
+
+// A fit wider than the points whose rays agree less tightly than a pixel counts as the cloud's
+// width only up to loose_wider_max_over_cloud of it: beyond, its edges lie beside the stem (a
+// farther stem's outline next to one side in some views) and the points' width stands; agreeing
+// to a pixel with both sides in three views it stands as any wider fit. Swept over the widening
+// and the scatter.
+TEST(JudgeSilhouetteFit, ALooseFitFarWiderThanThePointsKeepsTheCloud) {
+  const MeasureOptions o;
+  for (double share : {1.05, 1.15, 1.22, 1.28, 1.34}) {
+    for (double rms_px : {0.5, 1.0, 1.5, 2.0, 2.9}) {
+      Case c;
+      c.fit.radius_m = share * 0.15;
+      c.fit.rms_m = rms_px * c.px_m;
+      const bool tight = rms_px < o.tight_fit_rms_px;
+      const SilhouetteVerdict want = tight || share < o.loose_wider_max_over_cloud
+                                         ? SilhouetteVerdict::kUse
+                                         : SilhouetteVerdict::kKeepCloud;
       EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m), want)
           << "share " << share << " rms " << rms_px << " px";
     }
