@@ -19,6 +19,11 @@ double CloudRadius(const Stem& s) {
   return 0.5 * (s.dbh_slice_m > 0 ? s.dbh_slice_m : s.dbh_circle_m);
 }
 
+// Whether two stems' circles overlap: one stem measured twice.
+bool CirclesOverlap(const Stem& a, const Stem& b) {
+  return (a.centre_xy - b.centre_xy).norm() < 0.5 * (a.dbh_m + b.dbh_m);
+}
+
 }  // namespace
 
 int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems) {
@@ -111,11 +116,10 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
 }
 
 bool OutlinesTheStemInMoreViews(const Stem& core, const Stem& fit) {
-  const bool overlaps = (core.centre_xy - fit.centre_xy).norm() < 0.5 * (core.dbh_m + fit.dbh_m);
   const auto share = [](const FitEvidence& e) {
     return e.tried_views > 0 ? static_cast<double>(e.two_sided_views) / e.tried_views : 0.0;
   };
-  return overlaps && share(core.evidence) > share(fit.evidence);
+  return CirclesOverlap(core, fit) && share(core.evidence) > share(fit.evidence);
 }
 
 PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
@@ -171,9 +175,8 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
         (c.dbh_m < min_core_dbh_m && !r.whole)) {
       continue;
     }
-    const bool overlaps = std::ranges::any_of(*kept, [&](const Stem& k) {
-      return (k.centre_xy - c.centre_xy).norm() < 0.5 * (k.dbh_m + c.dbh_m);
-    });
+    const bool overlaps =
+        std::ranges::any_of(*kept, [&](const Stem& k) { return CirclesOverlap(k, c); });
     if (!overlaps) {
       kept->push_back(std::move(c));
       whole_cores += r.whole;
