@@ -154,6 +154,9 @@ TEST(MeasureOptions, TheSilhouettesSettingsAreChecked) {
   o.tangent.blur_sigma_px = -1;
   EXPECT_EQ(CheckMessage(o), "the silhouettes' blur must not be negative");
   o = MeasureOptions();
+  o.tangent.settle_min_change_share = -0.01;
+  EXPECT_EQ(CheckMessage(o), "the change that leaves a fit unsettled must not be negative");
+  o = MeasureOptions();
   o.tangent.max_bands_each_side = 0;
   EXPECT_EQ(CheckMessage(o),
             "the silhouettes' bands need at least one row, and one band on each side, within 1 m "

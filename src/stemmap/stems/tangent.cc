@@ -76,6 +76,9 @@ void TangentOptions::Check() const {
     throw InputError(
         "the sigma of a stem's face's range must not be negative, its starts' growth above 1");
   }
+  if (!(settle_min_change_share >= 0)) {
+    throw InputError("the change that leaves a fit unsettled must not be negative");
+  }
   if (!(blur_sigma_px >= 0)) throw InputError("the silhouettes' blur must not be negative");
 }
 
@@ -369,6 +372,7 @@ TangentFit FitTangentRaysFrom(const TangentOptions& o, const TangentViews& v,
         static_cast<int>(normals.size()) < fit.rays) {
       return fit;
     }
+    fit.last_change_m = std::abs(r_new - r);
     c = c_new;
     r = r_new;
     fit.ok = true;
@@ -933,13 +937,43 @@ std::optional<TangentFit> FitWhoseRimIsBark(
   return std::nullopt;
 }
 
+namespace {
+
+// A chosen fit whose last round still changed its radius is searched again from its own circle:
+// the edges are searched where the new circle predicts them, so a start far outside a thin stem
+// (a cloud smeared over what stands beside it) comes the rest of the way in. The new circle
+// replaces it only when as tight, on as many silhouettes and both sides in as many views: a
+// circle closing inside a stem on bark or a shadow's edge loses silhouettes where that edge
+// fades, while the stem's own outline holds them all round the arc. Nor narrower than a fit
+// that can stand for the stem: within a sapling's crown, the sapling's own stem.
+TangentFit SettleChosenFit(const TangentOptions& o, const TangentViews& v, const TangentFit& fit,
+                           double radius0, double breast_z) {
+  if (o.settle_min_change_share <= 0 || !fit.ok ||
+      fit.last_change_m <= o.settle_min_change_share * fit.radius_m) {
+    return fit;
+  }
+  const TangentFit settled = FitTangentRaysFrom(o, v, fit.centre, radius0, fit.radius_m, breast_z);
+  const bool replaces =
+      settled.ok && settled.rays >= fit.rays && settled.two_sided_views >= fit.two_sided_views &&
+      settled.rms_m <= fit.rms_m && WithinStartWidths(o, settled.radius_m, radius0);
+  spdlog::debug(
+      "tangent: settled{} ({:.2f}, {:.2f}) r {:.3f} over r {:.3f}: {} rays, {} two-sided, "
+      "rms {:.1f} mm",
+      replaces ? "" : " (not kept)", settled.centre.x(), settled.centre.y(), settled.radius_m,
+      fit.radius_m, settled.rays, settled.two_sided_views, 1000 * settled.rms_m);
+  return replaces ? settled : fit;
+}
+
+}  // namespace
+
 TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const Eigen::Vector2d& centre0, double radius0, double breast_z,
                           const std::function<bool(const TangentFit&)>& accept,
                           const std::function<BarkVerdict(const TangentFit&)>& bark,
                           const std::function<BarkVerdict(const TangentFit&, double)>& rim) {
   std::vector<TangentFit> tried;
-  TangentFit fit = ChooseAmongStarts(o, v, centre0, radius0, breast_z, accept, &tried);
+  TangentFit fit = SettleChosenFit(
+      o, v, ChooseAmongStarts(o, v, centre0, radius0, breast_z, accept, &tried), radius0, breast_z);
   // A fit can close inside the stem: a circle too narrow misaligns the bark beyond it, whose
   // edges then hold it narrow, and shading across a round stem makes edges at a fixed share of
   // its apparent half-width in every view, tangent to a smaller concentric circle. Tangency

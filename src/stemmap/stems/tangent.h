@@ -110,6 +110,12 @@ struct TangentOptions {
   // Such a fit is searched again from its own circle (its start's rounds may end before it
   // settles) and replaced when as tight, on as many silhouettes (one fewer at most).
   bool settle_few_views = true;
+  // A chosen fit whose last round still changed its radius by more than this share of it has
+  // not settled (a cloud smeared over what stands beside a thin stem starts the search far
+  // outside it, and each round finds edges only part of the way in): it is searched again from
+  // its own circle and replaced when the new circle is as tight, on as many silhouettes and both
+  // sides in as many views. 0: off.
+  double settle_min_change_share = 0.03;
   // A stem straight behind a nearer one may show its left side only from one end of the arm and
   // its right side only from the other, never both at once. Silhouettes of each side in at
   // least this many views, on one circle to within the narrower start's rms, bound its width
@@ -165,7 +171,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     recheck_rms_slack_px, narrow_start_scales, narrow_max_rms_px, narrow_min_share,
     on_bark_max_rms_px, recheck_rim, rim_min_share, tighter_rms_share, sideways_start_shifts,
     pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share, settle_few_views,
-    min_views_each_side, face_sigma_m, face_start_growth, refine_on_brightness, blur_sigma_px)
+    settle_min_change_share, min_views_each_side, face_sigma_m, face_start_growth,
+    refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images
@@ -181,11 +188,12 @@ struct TangentFit {
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   double radius_m = 0.0, radius_sd_m = 0.0, rms_m = 0.0;
   int rays = 0, views = 0;
-  int tried_views = 0;      // keyframes that should see the stem
-  int hidden_sides = 0;     // silhouette sides (two a view) left out beside a nearer stem
-  int open_views = 0;       // tried views where no nearer stem hid a side
-  int two_sided_views = 0;  // views that gave both silhouettes
-  double arc_deg = 0.0;     // spread of the viewing directions used
+  int tried_views = 0;         // keyframes that should see the stem
+  int hidden_sides = 0;        // silhouette sides (two a view) left out beside a nearer stem
+  int open_views = 0;          // tried views where no nearer stem hid a side
+  int two_sided_views = 0;     // views that gave both silhouettes
+  double arc_deg = 0.0;        // spread of the viewing directions used
+  double last_change_m = 0.0;  // how much the last round changed the radius (m)
   // The silhouettes of the last round: one ray each (keyframe, side 0 left / 1 right, the ray's
   // normal toward the stem, the camera centre, the heading from the stem to the camera).
   struct Ray {

@@ -896,3 +896,39 @@ TEST(Tangent, DegenerateSystems) {
 
 }  // namespace
 }  // namespace stemmap::stems
+
+namespace stemmap::stems {
+namespace {
+
+// A chosen fit is refined again only where its last round still changed the radius, and kept
+// only where that tightens it: on stems whose starts converge within the refits (too narrow,
+// right, or over twice too wide; plain sky or a textured background), the fits are those without
+// it.
+TEST(Tangent, SettlingLeavesASettledFitAlone) {
+  const PinholeCamera camera = PinholeCamera::FromHfov(960, 540, 67.0);
+  const Eigen::Vector2d centre(6.2, 0.8);
+  for (const double radius : {0.058, 0.12}) {
+    for (const bool textured : {true, false}) {
+      const RenderedStem scene = RenderStems({{centre.x(), centre.y(), radius}}, textured, false,
+                                             Texture::kIrregular, camera);
+      const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+      for (const double start_scale : {0.6, 1.0, 1.8, 2.4}) {
+        SCOPED_TRACE(::testing::Message() << "radius " << radius << ", textured " << textured
+                                          << ", start " << start_scale << " times");
+        TangentOptions without;
+        without.settle_min_change_share = 0;
+        const TangentFit settled =
+            FitTangentRays(TangentOptions(), views, centre, start_scale * radius, 1.37);
+        const TangentFit plain = FitTangentRays(without, views, centre, start_scale * radius, 1.37);
+        ASSERT_TRUE(settled.ok);
+        ASSERT_TRUE(plain.ok);
+        EXPECT_NEAR(settled.radius_m, radius, 0.004);
+        EXPECT_NEAR(settled.radius_m, plain.radius_m, 0.001);
+        EXPECT_LT((settled.centre - plain.centre).norm(), 0.002);
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace stemmap::stems
