@@ -937,6 +937,13 @@ std::optional<TangentFit> FitWhoseRimIsBark(
   return std::nullopt;
 }
 
+bool SettledChosenFitReplaces(const TangentOptions& o, const TangentFit& chosen,
+                              const TangentFit& settled, double radius0) {
+  return settled.ok && settled.rays >= chosen.rays &&
+         settled.two_sided_views >= chosen.two_sided_views && settled.rms_m <= chosen.rms_m &&
+         WithinStartWidths(o, settled.radius_m, radius0);
+}
+
 namespace {
 
 // A chosen fit whose last round still changed its radius is searched again from its own circle:
@@ -953,9 +960,7 @@ TangentFit SettleChosenFit(const TangentOptions& o, const TangentViews& v, const
     return fit;
   }
   const TangentFit settled = FitTangentRaysFrom(o, v, fit.centre, radius0, fit.radius_m, breast_z);
-  const bool replaces =
-      settled.ok && settled.rays >= fit.rays && settled.two_sided_views >= fit.two_sided_views &&
-      settled.rms_m <= fit.rms_m && WithinStartWidths(o, settled.radius_m, radius0);
+  const bool replaces = SettledChosenFitReplaces(o, fit, settled, radius0);
   spdlog::debug(
       "tangent: settled{} ({:.2f}, {:.2f}) r {:.3f} over r {:.3f}: {} rays, {} two-sided, "
       "rms {:.1f} mm",

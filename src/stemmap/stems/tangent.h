@@ -287,6 +287,12 @@ std::optional<TangentFit> FitSeenInFewViews(
     const Eigen::Vector2d& centre0, double radius0, double px_m,
     const std::function<bool(const TangentFit&)>& accept = {});
 
+// Whether `settled`, searched again from the circle of `chosen` (a fit whose last round still
+// changed its radius), replaces it: as tight, on as many silhouettes and two-sided views, and no
+// narrower than a fit that can stand for the stem (a share of radius0, the cloud's radius).
+bool SettledChosenFitReplaces(const TangentOptions& o, const TangentFit& chosen,
+                              const TangentFit& settled, double radius0);
+
 // Whether `settled`, searched again from the circle of `few` (a FitSeenInFewViews fit), replaces
 // it: as tight, on as many silhouettes and two-sided views (one fewer at most), within the same
 // bounds on its radius and place.

@@ -894,11 +894,42 @@ TEST(Tangent, DegenerateSystems) {
       SolveTangentCircle({{1, 0}, {0, 1}}, {{0, 0}, {0, 0}}, 0.004, &c, &r, &sd, &rms, nullptr));
 }
 
-}  // namespace
-}  // namespace stemmap::stems
-
-namespace stemmap::stems {
-namespace {
+// The fit of a thin stem's smeared cloud, 2.4 times its width, whose rounds came in part of the
+// way (0.142 -> 0.092 m) and stopped; refined again from its own circle it reaches the stem
+// (0.058 m) on more silhouettes, both sides in every view, tighter, and replaces it. Swept over
+// what makes a refit no better: fewer silhouettes, fewer two-sided views, a looser circle, or
+// narrower than a fit that can stand for the stem (a sapling's own stem within its crown).
+TEST(Tangent, ASettledChosenFitReplacesOneStillNarrowing) {
+  const TangentOptions o;
+  const double radius0 = 0.142;
+  TangentFit chosen;
+  chosen.ok = true;
+  chosen.centre = {0.763, -6.175};
+  chosen.radius_m = 0.092;
+  chosen.rms_m = 0.0074;
+  chosen.rays = 36;
+  chosen.two_sided_views = 15;
+  chosen.last_change_m = 0.013;
+  TangentFit settled = chosen;
+  settled.centre = {0.734, -6.219};
+  settled.radius_m = 0.058;
+  settled.rms_m = 0.0035;
+  settled.rays = 42;
+  settled.two_sided_views = 21;
+  EXPECT_TRUE(SettledChosenFitReplaces(o, chosen, settled, radius0));
+  const std::vector<std::pair<const char*, std::function<void(TangentFit&)>>> worse = {
+      {"fewer silhouettes", [](TangentFit& f) { f.rays = 35; }},
+      {"both sides in fewer views", [](TangentFit& f) { f.two_sided_views = 14; }},
+      {"looser", [](TangentFit& f) { f.rms_m = 0.0075; }},
+      {"under 0.35 of the cloud's radius", [](TangentFit& f) { f.radius_m = 0.049; }},
+      {"no fit", [](TangentFit& f) { f.ok = false; }}};
+  for (const auto& [what, change] : worse) {
+    SCOPED_TRACE(what);
+    TangentFit refit = settled;
+    change(refit);
+    EXPECT_FALSE(SettledChosenFitReplaces(o, chosen, refit, radius0));
+  }
+}
 
 // A chosen fit is refined again only where its last round still changed the radius, and kept
 // only where that tightens it: on stems whose starts converge within the refits (too narrow,
