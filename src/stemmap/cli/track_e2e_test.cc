@@ -112,6 +112,11 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
                                      });
   pipeline::ProcessOptions o;
   o.track = OptionsFromTruth(plot / "truth.json");
+  // Focal lengths per keyframe kept whatever they are, as for a focus that breathes: the
+  // keyframes' pictures are redrawn at the shared one, and the runs below from the saved track
+  // must redraw them the same way to find the same trees.
+  o.track.breathing_min_pct = 0.0;
+  o.track.breathing_min_keyframes = 1;
   o.georef.centre_easting_m = 545000.0;
   o.georef.centre_northing_m = 4700000.0;
   o.georef.crs = "EPSG:25830";
@@ -137,6 +142,7 @@ TEST(ProcessEndToEnd, ShortPlotGivesATreeList) {
   }
   const nlohmann::json summary = ReadJsonFile(dir / "out" / "summary.json");
   EXPECT_EQ(summary["plot"]["stems"].get<int>(), r.figures.stems);
+  EXPECT_TRUE(summary["track"]["breathing_corrected"].get<bool>());
   EXPECT_GT(r.figures.basal_area_m2_per_ha, 0.0);
   // The resolved options sit beside the outputs, the silhouette search's included.
   const nlohmann::json saved = ReadJsonFile(dir / "out" / "process_options.json");

@@ -22,6 +22,10 @@ void BundleOptions::Check() const {
   }
   if (min_observations < 2) throw InputError("points need at least 2 observations");
   if (max_iterations < 1) throw InputError("bundle adjustment needs at least 1 iteration");
+  if (!(sigma_keyframe_focal_pct > 0 && sigma_keyframe_focal_pct <= 10)) {
+    throw InputError(fmt::format("the per-keyframe focal length's SD {} % is outside (0, 10] %",
+                                 sigma_keyframe_focal_pct));
+  }
   if (!(function_tolerance > 0 && function_tolerance < 0.1 && early_round_function_tolerance > 0 &&
         early_round_function_tolerance < 0.1)) {
     throw InputError("bundle adjustment function tolerances must lie in (0, 0.1)");
@@ -58,27 +62,39 @@ double ReprojectionErrorPx(const SparseMap& map, const PinholeCamera& camera, in
   const Eigen::Vector3d p = map.cam_from_world[kf] * (x - map.centre_world[kf]);
   if (p.z() <= 1e-6) return 1e9;
   const Eigen::Vector3d ray = camera.CamRayFromImage(px);
+  const double k = map.FocalScaleAt(kf);
   if (!camera.HasDistortion()) {
-    return camera.fx * (map.focal_scale * p.head<2>() / p.z() - ray.head<2>()).norm();
+    return camera.fx * (k * p.head<2>() / p.z() - ray.head<2>()).norm();
   }
   // As the bundle adjustment's residual: the focal scale applies to what the lens gives.
   const RadialLens lens{camera.k1, camera.k2, camera.k3};
-  return camera.fx *
-         (map.focal_scale * lens.Distort(p.head<2>() / p.z()) - lens.Distort(ray.head<2>())).norm();
+  return camera.fx * (k * lens.Distort(p.head<2>() / p.z()) - lens.Distort(ray.head<2>())).norm();
+}
+
+std::vector<double> FocalScaleStrayPct(const std::vector<double>& scales) {
+  if (scales.empty()) return {};
+  std::vector<double> v = scales;
+  const size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + mid, v.end());
+  const double median = v[mid];
+  std::vector<double> stray_pct;
+  for (double s : scales) stray_pct.push_back(100.0 * std::abs(s / median - 1.0));
+  return stray_pct;
 }
 
 namespace {
 
-// Camera ray through a pixel under the map's focal scale.
-Eigen::Vector3d RayOf(const SparseMap& map, const PinholeCamera& camera,
+// Camera ray through a pixel of keyframe `kf` under the map's focal scale.
+Eigen::Vector3d RayOf(const SparseMap& map, const PinholeCamera& camera, int kf,
                       const Eigen::Vector2d& px) {
+  const double k = map.FocalScaleAt(kf);
   if (camera.HasDistortion()) {
     // The focal scale applies to what the lens gives (ReprojectionError).
-    return camera.UndistortedRay((px.x() - camera.cx) / (camera.fx * map.focal_scale),
-                                 (px.y() - camera.cy) / (camera.fy * map.focal_scale));
+    return camera.UndistortedRay((px.x() - camera.cx) / (camera.fx * k),
+                                 (px.y() - camera.cy) / (camera.fy * k));
   }
   Eigen::Vector3d ray = camera.CamRayFromImage(px);
-  ray.head<2>() /= map.focal_scale;
+  ray.head<2>() /= k;
   return ray;
 }
 
@@ -106,7 +122,7 @@ int TriangulateTracks(const BundleOptions& o, const std::vector<Track>& tracks,
       if (!map->obs_valid[t][k]) continue;
       const int kf = obs[k].keyframe;
       const Eigen::Vector3d d =
-          (map->cam_from_world[kf].conjugate() * RayOf(*map, camera, obs[k].px)).normalized();
+          (map->cam_from_world[kf].conjugate() * RayOf(*map, camera, kf, obs[k].px)).normalized();
       const Eigen::Matrix3d p = Eigen::Matrix3d::Identity() - d * d.transpose();
       a += p;
       b += p * map->centre_world[kf];
@@ -164,16 +180,20 @@ double RmsPx(const std::vector<Track>& tracks, const std::vector<int>& ids,
   return n ? std::sqrt(sq / n) : 0.0;
 }
 
-// The keyframe poses, mount and focal scale in one buffer, in a fixed order. Ceres orders the
+// The keyframe poses, mount, shared focal scale and, where the map has them, the keyframes' own
+// focal scales (over the starting focal length) in one buffer, in a fixed order. Ceres orders the
 // blocks of an elimination group by address; separate allocations would let the heap's layout
 // (which other threads touch) change the order, and with it the rounding, from run to run.
 class CameraBlocks {
  public:
-  explicit CameraBlocks(const SparseMap& map) : n_(static_cast<int>(map.centre_world.size())) {
-    v_.resize(7 * n_ + 5);
+  explicit CameraBlocks(const SparseMap& map)
+      : n_(static_cast<int>(map.centre_world.size())),
+        per_keyframe_(!map.keyframe_focal_scale.empty()) {
+    v_.resize(7 * n_ + 5 + (per_keyframe_ ? n_ : 0));
     for (int k = 0; k < n_; ++k) {
       std::copy_n(map.cam_from_world[k].coeffs().data(), 4, q(k));
       std::copy_n(map.centre_world[k].data(), 3, c(k));
+      if (per_keyframe_) *keyframe_focal(k) = map.FocalScaleAt(k);
     }
     std::copy_n(map.arm_from_cam.coeffs().data(), 4, mount());
     *focal() = map.focal_scale;
@@ -183,10 +203,15 @@ class CameraBlocks {
   double* c(int k) { return &v_[7 * k + 4]; }
   double* mount() { return &v_[7 * n_]; }
   double* focal() { return &v_[7 * n_ + 4]; }
+  bool per_keyframe() const { return per_keyframe_; }
+  double* keyframe_focal(int k) { return &v_[7 * n_ + 5 + k]; }
+  // The focal scale keyframe k's observations see.
+  double* focal_of(int k) { return per_keyframe_ ? keyframe_focal(k) : focal(); }
   void CopyTo(SparseMap* map) {
     for (int k = 0; k < n_; ++k) {
       std::copy_n(q(k), 4, map->cam_from_world[k].coeffs().data());
       std::copy_n(c(k), 3, map->centre_world[k].data());
+      if (per_keyframe_) map->keyframe_focal_scale[k] = *keyframe_focal(k) / *focal();
     }
     std::copy_n(mount(), 4, map->arm_from_cam.coeffs().data());
     map->focal_scale = *focal();
@@ -194,6 +219,7 @@ class CameraBlocks {
 
  private:
   int n_;
+  bool per_keyframe_;
   std::vector<double> v_;
 };
 
@@ -224,7 +250,7 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
       const Eigen::Vector3d ray = camera.CamRayFromImage(ob.px);
       problem.AddResidualBlock(PoseReprojectionCost::Create(ray.head<2>(), camera.fx, lens),
                                reprojection_loss, cams.pose(ob.keyframe),
-                               map->point_world[t].data(), cams.focal());
+                               map->point_world[t].data(), cams.focal_of(ob.keyframe));
       kf_used[ob.keyframe] = 1;
       ++s.observations;
     }
@@ -240,6 +266,13 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
     problem.SetManifold(pose, &pose_manifold);
   }
   problem.SetManifold(cams.mount(), &quaternion_manifold);
+  if (cams.per_keyframe()) {
+    for (int k = 0; k < n_kf; ++k) {
+      if (!kf_used[k]) continue;
+      problem.AddResidualBlock(KeyframeFocalPriorError::Create(o.sigma_keyframe_focal_pct / 100.0),
+                               nullptr, cams.keyframe_focal(k), cams.focal());
+    }
+  }
   if (!o.refine_focal && problem.HasParameterBlock(cams.focal())) {
     problem.SetParameterBlockConstant(cams.focal());
   }

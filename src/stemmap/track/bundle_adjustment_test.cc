@@ -2,23 +2,28 @@
 
 #include <gtest/gtest.h>
 
+#include <functional>
 #include <limits>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
+#include "stemmap/track/track.h"
 
 namespace stemmap::track {
 namespace {
 
 // A known world: cameras on a 1 m arm turning 1.1 times, a mount a little off nominal, points
-// scattered 3-15 m from the axis; tracks are their noisy projections.
+// scattered 3-15 m from the axis; tracks are their noisy projections. Where `focal_scale_at` is
+// given, each keyframe's focal length is that many times the camera's at its arm angle (rad), as
+// an autofocus following near and far trunks would change it (truth.keyframe_focal_scale).
 struct SyntheticRig {
   PinholeCamera camera = PinholeCamera::FromHfov(640, 360, 67.0);
   SparseMap truth;
   std::vector<Track> tracks;
   std::vector<double> phi;
 
-  explicit SyntheticRig(uint64_t seed) {
+  explicit SyntheticRig(uint64_t seed,
+                        const std::function<double(double)>& focal_scale_at = nullptr) {
     Rng rng(seed);
     const int n_kf = 80;
     const Eigen::Quaterniond mount =
@@ -34,6 +39,9 @@ struct SyntheticRig {
                                        Eigen::Vector3d(rng.Normal(), rng.Normal(), rng.Normal()));
     }
     truth.arm_from_cam = mount;
+    for (int k = 0; k < n_kf; ++k) {
+      truth.keyframe_focal_scale.push_back(focal_scale_at ? focal_scale_at(phi[k]) : 1.0);
+    }
     for (int i = 0; i < 2500; ++i) {
       const double a = rng.Uniform(0, 2 * M_PI), r = rng.Uniform(3, 15);
       const Eigen::Vector3d x(r * std::cos(a), r * std::sin(a), rng.Uniform(-1.3, 2.0));
@@ -41,8 +49,10 @@ struct SyntheticRig {
       for (int k = 0; k < n_kf; ++k) {
         const Eigen::Vector3d p = truth.cam_from_world[k] * (x - truth.centre_world[k]);
         if (p.z() < 0.5) continue;
+        const Eigen::Vector2d centre(camera.cx, camera.cy);
         const Eigen::Vector2d px =
-            camera.ImageFromCam(p) + 0.3 * Eigen::Vector2d(rng.Normal(), rng.Normal());
+            centre + truth.keyframe_focal_scale[k] * (camera.ImageFromCam(p) - centre) +
+            0.3 * Eigen::Vector2d(rng.Normal(), rng.Normal());
         if (px.x() < 0 || px.y() < 0 || px.x() > 639 || px.y() > 359) continue;
         t.obs.push_back({k, px});
       }
@@ -105,6 +115,95 @@ TEST(BundleAdjustment, DenseAndSparseSchurAgree) {
   }
 }
 
+// The rounds as tracking runs them, with the focal length refined.
+SparseMap Adjusted(const SyntheticRig& rig, const BundleOptions& o) {
+  SparseMap map;
+  PlaceOnCircle(rig.phi, 1.0, &map);
+  for (int round = 0; round < 3; ++round) {
+    TriangulateTracks(o, rig.tracks, rig.camera, &map);
+    RunBundleAdjustment(o, rig.tracks, rig.camera, &map);
+  }
+  return map;
+}
+
+// Max distance (m) of the map's camera centres from the truth's.
+double WorstCentreErrorM(const SyntheticRig& rig, const SparseMap& map) {
+  double worst = 0.0;
+  for (size_t k = 0; k < rig.phi.size(); ++k) {
+    worst = std::max(worst, (map.centre_world[k] - rig.truth.centre_world[k]).norm());
+  }
+  return worst;
+}
+
+// Focus breathing of `pct` %: a focal length that follows the scene all round the turn, and one
+// focused far (shorter) but for two short arcs where a near trunk fills the middle of the view.
+std::function<double(double)> Wavering(double pct) {
+  return [pct](double phi) { return 1.0 + 0.01 * pct * std::sin(5.0 * phi + std::cos(3.0 * phi)); };
+}
+std::function<double(double)> NearTrunkNowAndThen(double pct) {
+  return [pct](double phi) {
+    const double a = std::remainder(phi, 2.0 * M_PI);
+    const bool near = std::abs(a - 1.0) < 0.25 || std::abs(a + 2.0) < 0.2;
+    return 1.0 + 0.01 * pct * (near ? 1.0 : -1.0);
+  };
+}
+
+// One more round with a focal length per keyframe, as tracking runs it.
+void AdjustPerKeyframe(const SyntheticRig& rig, const BundleOptions& o, SparseMap* map) {
+  map->keyframe_focal_scale.assign(rig.phi.size(), 1.0);
+  TriangulateTracks(o, rig.tracks, rig.camera, map);
+  RunBundleAdjustment(o, rig.tracks, rig.camera, map);
+}
+
+// A breathing focal length that one shared focal length cannot follow is taken up by the camera
+// centres, moved in and out by centimetres (a zoom of the near scene looks like a step towards
+// it); a focal length per keyframe takes it back, and the centres come out as a fixed-focus
+// camera's do.
+TEST(BundleAdjustment, AFocalLengthPerKeyframeFollowsABreathingFocus) {
+  BundleOptions o;
+  o.max_points = 2000;
+  o.refine_focal = true;
+  for (const auto& [seed, pattern] :
+       {std::pair{12, Wavering(0.7)}, std::pair{13, NearTrunkNowAndThen(0.7)}}) {
+    const SyntheticRig rig(seed, pattern);
+    SparseMap map = Adjusted(rig, o);
+    EXPECT_GT(WorstCentreErrorM(rig, map), 0.02) << seed;
+    AdjustPerKeyframe(rig, o, &map);
+    EXPECT_LT(WorstCentreErrorM(rig, map), 0.006) << seed;  // metres, as without breathing
+    double worst_scale = 0.0;
+    for (size_t k = 0; k < rig.phi.size(); ++k) {
+      worst_scale = std::max(worst_scale, std::abs(map.FocalScaleAt(static_cast<int>(k)) -
+                                                   rig.truth.keyframe_focal_scale[k]));
+    }
+    EXPECT_LT(worst_scale, 0.002) << seed;  // against the 0.7 % breathing
+  }
+}
+
+// The refined focal lengths stray from their median as the truth's do where the focus breathes,
+// and by a few hundredths of a percent where it does not: what tells tracking to keep them.
+TEST(BundleAdjustment, KeyframeFocalLengthsStrayOnlyWhereTheFocusBreathes) {
+  BundleOptions o;
+  o.max_points = 2000;
+  o.refine_focal = true;
+  const TrackOptions track;
+  const SyntheticRig fixed_focus(11);
+  SparseMap map = Adjusted(fixed_focus, o);
+  AdjustPerKeyframe(fixed_focus, o, &map);
+  EXPECT_EQ(BreathingKeyframes(track, map.keyframe_focal_scale), 0);
+  const std::vector<double> fixed_stray = FocalScaleStrayPct(map.keyframe_focal_scale);
+  EXPECT_LT(*std::max_element(fixed_stray.begin(), fixed_stray.end()),
+            0.5 * track.breathing_min_pct);
+  for (const auto& pattern : {Wavering(0.7), NearTrunkNowAndThen(0.5)}) {
+    const SyntheticRig rig(11, pattern);
+    map = Adjusted(rig, o);
+    AdjustPerKeyframe(rig, o, &map);
+    // Up to a couple that lie within the estimates' noise of the threshold.
+    EXPECT_NEAR(BreathingKeyframes(track, map.keyframe_focal_scale),
+                BreathingKeyframes(track, rig.truth.keyframe_focal_scale), 2);
+    EXPECT_GE(BreathingKeyframes(track, map.keyframe_focal_scale), track.breathing_min_keyframes);
+  }
+}
+
 TEST(BundleAdjustment, RejectsBadOptions) {
   BundleOptions o;
   o.arm_radius_m = 0.0;
@@ -116,6 +215,11 @@ TEST(BundleAdjustment, RejectsBadOptions) {
     t = BundleOptions();
     t.early_round_function_tolerance = tolerance;
     EXPECT_THROW(t.Check(), InputError) << tolerance;
+  }
+  for (double sigma_pct : {0.0, -1.0, 11.0, std::numeric_limits<double>::quiet_NaN()}) {
+    BundleOptions t;
+    t.sigma_keyframe_focal_pct = sigma_pct;
+    EXPECT_THROW(t.Check(), InputError) << sigma_pct;
   }
   BundleOptions no_iterations;
   no_iterations.max_iterations = 0;

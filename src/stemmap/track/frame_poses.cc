@@ -44,7 +44,8 @@ struct Resected {
 
 // Inliers of `pose` (world_from_cam) among the frame's observations of valid points.
 int CountInliers(const FramePoseOptions& o, const FrameObservations& b, const SparseMap& map,
-                 const PinholeCamera& camera, const Rigid3d& world_from_cam, double* sq_sum) {
+                 const PinholeCamera& camera, double focal_scale, const Rigid3d& world_from_cam,
+                 double* sq_sum) {
   const Rigid3d cam_from_world = world_from_cam.Inverse();
   int n = 0;
   *sq_sum = 0.0;
@@ -54,7 +55,7 @@ int CountInliers(const FramePoseOptions& o, const FrameObservations& b, const Sp
     const Eigen::Vector3d p = cam_from_world * map.point_world[t];
     if (p.z() <= 1e-6) continue;
     const Eigen::Vector3d ray = camera.CamRayFromImage(b.px[i].cast<double>());
-    const double e = camera.fx * (p.head<2>() / p.z() - ray.head<2>()).norm();
+    const double e = camera.fx * (focal_scale * p.head<2>() / p.z() - ray.head<2>()).norm();
     if (e > o.inlier_px) continue;
     *sq_sum += e * e;
     ++n;
@@ -62,13 +63,14 @@ int CountInliers(const FramePoseOptions& o, const FrameObservations& b, const Sp
   return n;
 }
 
+// The frame's pose against the map's points, at `focal_scale` times the camera's focal length.
 Resected Resect(const FramePoseOptions& o, const BundleOptions& bo, const FrameObservations& b,
-                const StampedPose& initial, const SparseMap& map, const PinholeCamera& camera) {
+                const StampedPose& initial, const SparseMap& map, const PinholeCamera& camera,
+                double focal_scale) {
   Resected r{initial};
   Eigen::Quaterniond q = initial.world_from_cam.rotation.conjugate();  // cam_from_world
   Eigen::Vector3d c = initial.world_from_cam.translation;
   Eigen::Quaterniond mount = map.arm_from_cam;
-  double focal_scale = 1.0;
   std::vector<Eigen::Vector3d> points;
   points.reserve(b.track.size());
   ceres::Problem::Options po;
@@ -110,13 +112,33 @@ Resected Resect(const FramePoseOptions& o, const BundleOptions& bo, const FrameO
 
   const Rigid3d refined{q.normalized().conjugate(), c};
   double sq = 0.0;
-  const int inliers = CountInliers(o, b, map, camera, refined, &sq);
+  const int inliers = CountInliers(o, b, map, camera, focal_scale, refined, &sq);
   r.change_deg = refined.rotation.angularDistance(initial.world_from_cam.rotation) * 180.0 / M_PI;
   if (inliers < o.min_points || r.change_deg > o.max_change_deg) return r;
   r.pose.world_from_cam = refined;
   r.refined = true;
   r.rms_px = std::sqrt(sq / inliers);
   return r;
+}
+
+// Each frame's focal length over the camera's: where the keyframes have their own (focus
+// breathing), the nearest keyframes' interpolated in time; 1 otherwise.
+std::vector<double> FrameFocalScales(const std::vector<double>& t_s,
+                                     const std::vector<StampedPose>& keyframes,
+                                     const SparseMap& map) {
+  std::vector<double> scales(t_s.size(), 1.0);
+  if (map.keyframe_focal_scale.size() != keyframes.size() || keyframes.empty()) return scales;
+  for (size_t i = 0; i < t_s.size(); ++i) {
+    const auto after = std::lower_bound(keyframes.begin(), keyframes.end(), t_s[i],
+                                        [](const StampedPose& k, double t) { return k.t_s < t; });
+    const size_t b = std::min<size_t>(after - keyframes.begin(), keyframes.size() - 1);
+    const size_t a = b > 0 ? b - 1 : 0;
+    const double span = keyframes[b].t_s - keyframes[a].t_s;
+    const double w = span > 0 ? std::clamp((t_s[i] - keyframes[a].t_s) / span, 0.0, 1.0) : 1.0;
+    scales[i] = map.FocalScaleAt(static_cast<int>(a)) * (1.0 - w) +
+                map.FocalScaleAt(static_cast<int>(b)) * w;
+  }
+  return scales;
 }
 
 }  // namespace
@@ -130,11 +152,12 @@ std::vector<StampedPose> RefineFramePoses(const FramePoseOptions& o, const Bundl
   std::vector<double> t_s;
   for (const FrameObservations& b : between) t_s.push_back(b.t_s);
   const std::vector<StampedPose> initial = InterpolatePoses(t_s, keyframes_axis);
+  const std::vector<double> focal_scale = FrameFocalScales(t_s, keyframes_axis, map);
   std::vector<Resected> res(between.size());
   if (o.enabled) {
 #pragma omp parallel for schedule(dynamic, 8) num_threads(std::max(1, o.threads))
     for (int i = 0; i < static_cast<int>(between.size()); ++i) {
-      res[i] = Resect(o, bo, between[i], initial[i], map, camera);
+      res[i] = Resect(o, bo, between[i], initial[i], map, camera, focal_scale[i]);
     }
   } else {
     for (size_t i = 0; i < between.size(); ++i) res[i].pose = initial[i];

@@ -35,6 +35,8 @@ struct FramePoseSummary {
 
 // `keyframes_axis` are world_from_cam in the axis frame (the map's frame), one per keyframe of
 // `map`, stamped with the keyframe times. Returns one pose per entry of `between`, same frame.
+// Where the map has a focal length per keyframe (focus breathing), each frame is resected at the
+// one interpolated in time between the keyframes either side.
 std::vector<StampedPose> RefineFramePoses(const FramePoseOptions& options,
                                           const BundleOptions& bundle,
                                           const std::vector<FrameObservations>& between,

@@ -237,4 +237,28 @@ struct PoseYawGaugeError {
   }
 };
 
+// Soft prior that a keyframe's focal length stays near the one the keyframes share (focus
+// breathing changes it by up to about 1 %): with k_i the keyframe's focal scale and k the shared
+// one (both over the starting focal length),
+//   r = (k_i / k - 1) / sigma.
+// The shared scale appears in no reprojection residual once the keyframes have their own, so
+// these priors alone place it: at the keyframes' mean, to first order.
+struct KeyframeFocalPriorError {
+  explicit KeyframeFocalPriorError(double sigma) : sigma_(sigma) {}
+
+  template <typename T>
+  bool operator()(const T* keyframe_scale, const T* shared_scale, T* r) const {
+    r[0] = (keyframe_scale[0] / shared_scale[0] - T(1)) / T(sigma_);
+    return true;
+  }
+
+  static ceres::CostFunction* Create(double sigma) {
+    return new ceres::AutoDiffCostFunction<KeyframeFocalPriorError, 1, 1, 1>(
+        new KeyframeFocalPriorError(sigma));
+  }
+
+ private:
+  double sigma_;
+};
+
 }  // namespace stemmap::track

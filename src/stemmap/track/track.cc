@@ -14,6 +14,7 @@
 #include "stemmap/core/run_folder.h"
 #include "stemmap/core/units.h"
 #include "stemmap/track/frame_poses.h"
+#include "stemmap/track/keyframe_zoom.h"
 #include "stemmap/track/plot_frame.h"
 #include "stemmap/track/rotation.h"
 #include "stemmap/track/track_io.h"
@@ -71,6 +72,39 @@ PinholeCamera WorkingCamera(const TrackOptions& o, const VideoInfo& info) {
   return PinholeCamera::FromHfov(w, h, o.hfov_deg);
 }
 
+// One more round in which each keyframe has its own focal length (focus breathing). A focal
+// length that breathes while one is shared is taken up by the camera centres, moved in and out
+// by centimetres (BundleAdjustment.AFocalLengthPerKeyframeFollowsABreathingFocus), so the
+// breathing shows only once each keyframe may have its own.
+BundleSummary AdjustForBreathing(const BundleOptions& bo, const std::vector<Track>& tracks,
+                                 const PinholeCamera& camera, SparseMap* map) {
+  map->keyframe_focal_scale.assign(map->centre_world.size(), 1.0);
+  TriangulateTracks(bo, tracks, camera, map);
+  return RunBundleAdjustment(bo, tracks, camera, map);
+}
+
+// The keyframes' pictures and trunk edges as `camera` (working size) would have shown them, from
+// pictures taken at `focal_scale` times its focal length.
+void RedrawAtSharedFocal(const PinholeCamera& camera, const std::vector<double>& focal_scale,
+                         std::vector<Keyframe>* keyframes) {
+  for (size_t k = 0; k < keyframes->size(); ++k) {
+    Keyframe& kf = (*keyframes)[k];
+    const double s = focal_scale[k];
+    kf.gray = UndoFocalScale(kf.gray, camera, s);
+    kf.bgr = UndoFocalScale(kf.bgr, camera, s);
+    if (!kf.gray_full.empty()) {
+      kf.gray_full = UndoFocalScale(
+          kf.gray_full, camera.Scaled(static_cast<double>(kf.gray_full.cols) / camera.width), s);
+    }
+    for (cv::Vec4f& seg : kf.vertical_segments) {
+      for (int i = 0; i < 4; i += 2) {
+        seg[i] = static_cast<float>(camera.cx + (seg[i] - camera.cx) / s);
+        seg[i + 1] = static_cast<float>(camera.cy + (seg[i + 1] - camera.cy) / s);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 void TrackOptions::Check() const {
@@ -86,6 +120,11 @@ void TrackOptions::Check() const {
     throw InputError(fmt::format("focal mode '{}' is not auto, fixed or refine", focal));
   }
   if (bundle_rounds < 1) throw InputError("at least one bundle adjustment round is needed");
+  if (!(breathing_min_pct >= 0) || breathing_min_keyframes < 1) {
+    throw InputError(fmt::format(
+        "focus breathing needs a focal stray of at least 0 % ({} %) in at least 1 keyframe ({})",
+        breathing_min_pct, breathing_min_keyframes));
+  }
   if (!(apparent_turn_parallax >= 0 && apparent_turn_parallax < 0.2) ||
       !(calibration_focal_tolerance > 0 && calibration_focal_tolerance < 0.5)) {
     throw InputError(
@@ -99,6 +138,12 @@ void TrackOptions::Check() const {
   BundleOptions b = bundle;
   b.arm_radius_m = arm_radius_m;
   b.Check();
+}
+
+int BreathingKeyframes(const TrackOptions& o, const std::vector<double>& keyframe_focal_scale) {
+  const std::vector<double> stray_pct = FocalScaleStrayPct(keyframe_focal_scale);
+  return static_cast<int>(std::count_if(stray_pct.begin(), stray_pct.end(),
+                                        [&](double p) { return p > o.breathing_min_pct; }));
 }
 
 std::string CalibrationFocalWarning(const TrackOptions& o, double apparent_turn_factor) {
@@ -247,12 +292,33 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
                  bs.BriefReport(), made);
     rounds.push_back(bs.BriefReport());
   }
+  // Focus breathing: one more round with a focal length per keyframe, kept where they stray.
+  SparseMap shared_focal_map = map;
+  const BundleSummary breathing_bs = AdjustForBreathing(bo, f.tracks, r.camera, &map);
+  const std::vector<double> stray_pct = FocalScaleStrayPct(map.keyframe_focal_scale);
+  const double focal_max_stray_pct =
+      stray_pct.empty() ? 0.0 : *std::max_element(stray_pct.begin(), stray_pct.end());
+  const int breathing_keyframes = BreathingKeyframes(o, map.keyframe_focal_scale);
+  if (breathing_keyframes >= o.breathing_min_keyframes) {
+    bs = breathing_bs;
+    spdlog::info(
+        "track: the focal length breathes ({} keyframes {:.1f} % or more from the rest, up to "
+        "{:.1f} %); per keyframe: {}",
+        breathing_keyframes, o.breathing_min_pct, focal_max_stray_pct, bs.BriefReport());
+    rounds.push_back(bs.BriefReport());
+  } else {
+    map = std::move(shared_focal_map);
+  }
   timing["bundle_adjustment_s"] = clock.Lap() - refine_s;
   timing["refine_observations_s"] = refine_s;
   const double initial_hfov_deg = r.camera.HfovDeg();
   r.camera.fx *= map.focal_scale;
   r.camera.fy *= map.focal_scale;
   map.focal_scale = 1.0;
+  if (!map.keyframe_focal_scale.empty()) {
+    RedrawAtSharedFocal(r.camera, map.keyframe_focal_scale, &f.keyframes);
+    r.keyframe_focal_scale = map.keyframe_focal_scale;
+  }
   std::vector<StampedPose> keyframes_axis;
   for (size_t k = 0; k < map.centre_world.size(); ++k) {
     keyframes_axis.push_back(
@@ -322,6 +388,10 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
                 {"dark_frames", f.dark_frames}};
   s["camera"] = r.camera;
   s["focal_refined"] = bo.refine_focal;
+  s["keyframe_focal_max_stray_pct"] = focal_max_stray_pct;
+  s["breathing_keyframes"] = breathing_keyframes;
+  s["breathing_corrected"] = !r.keyframe_focal_scale.empty();
+  if (!r.keyframe_focal_scale.empty()) s["keyframe_focal_scale"] = r.keyframe_focal_scale;
   s["hfov_initial_deg"] = initial_hfov_deg;
   s["hfov_deg"] = r.camera.HfovDeg();
   s["keyframes"] = f.keyframes.size();

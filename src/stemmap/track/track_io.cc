@@ -9,6 +9,7 @@
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/core/progress.h"
+#include "stemmap/track/keyframe_zoom.h"
 #include "stemmap/track/track.h"
 #include "stemmap/video/video_reader.h"
 
@@ -48,6 +49,14 @@ TrackResult ReadTrackFolder(const std::filesystem::path& dir) {
     throw InputError(
         fmt::format("{}: no track camera in it ({})", (dir / "summary.json").string(), e.what()));
   }
+  if (r.summary.contains("keyframe_focal_scale")) {
+    try {
+      r.keyframe_focal_scale = r.summary.at("keyframe_focal_scale").get<std::vector<double>>();
+    } catch (const nlohmann::json::exception& e) {
+      throw InputError(fmt::format("{}: unreadable keyframe_focal_scale ({})",
+                                   (dir / "summary.json").string(), e.what()));
+    }
+  }
   try {
     r.camera.Check();
   } catch (const InputError& e) {
@@ -57,6 +66,11 @@ TrackResult ReadTrackFolder(const std::filesystem::path& dir) {
   if (r.keyframes.size() < 3) {
     throw InputError(fmt::format("{} holds {} keyframes; a track has many more",
                                  (dir / "keyframes.tum").string(), r.keyframes.size()));
+  }
+  if (!r.keyframe_focal_scale.empty() && r.keyframe_focal_scale.size() != r.keyframes.size()) {
+    throw InputError(fmt::format("{}: {} keyframe focal scales for {} keyframes",
+                                 (dir / "summary.json").string(), r.keyframe_focal_scale.size(),
+                                 r.keyframes.size()));
   }
   if (std::filesystem::exists(dir / "trajectory.tum")) {
     r.frames = ReadTumTrajectory(dir / "trajectory.tum");
@@ -118,6 +132,16 @@ TrackResult LoadTrack(const std::filesystem::path& dir, const std::filesystem::p
     if (r.keyframe_images[j].empty()) {
       throw InputError(fmt::format("no frame of {} at keyframe time {:.3f} s of {}: another video?",
                                    video.string(), r.keyframes[j].t_s, dir.string()));
+    }
+  }
+  // Pictures taken while the focal length breathed, redrawn at the track's as the track did.
+  for (size_t j = 0; j < r.keyframe_focal_scale.size(); ++j) {
+    const double s = r.keyframe_focal_scale[j];
+    r.keyframe_images[j] = UndoFocalScale(r.keyframe_images[j], r.camera, s);
+    if (full_gray && !r.keyframe_gray_full[j].empty()) {
+      const double to_full = static_cast<double>(r.keyframe_gray_full[j].cols) / r.camera.width;
+      r.keyframe_gray_full[j] =
+          UndoFocalScale(r.keyframe_gray_full[j], r.camera.Scaled(to_full), s);
     }
   }
   spdlog::info("track: {} keyframes reused from {}", r.keyframes.size(), dir.string());
