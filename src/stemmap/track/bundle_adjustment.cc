@@ -22,6 +22,9 @@ void BundleOptions::Check() const {
   }
   if (min_observations < 2) throw InputError("points need at least 2 observations");
   if (max_iterations < 1) throw InputError("bundle adjustment needs at least 1 iteration");
+  if (!(min_lens_scale >= 0 && min_lens_scale < 1)) {
+    throw InputError(fmt::format("the least lens scale {} is outside [0, 1)", min_lens_scale));
+  }
   if (!(sigma_keyframe_focal_pct > 0 && sigma_keyframe_focal_pct <= 10)) {
     throw InputError(fmt::format("the per-keyframe focal length's SD {} % is outside (0, 10] %",
                                  sigma_keyframe_focal_pct));
@@ -55,6 +58,13 @@ void PlaceOnCircle(const std::vector<double>& phi, double radius_m, SparseMap* m
     map->cam_from_world[k] = (rz * map->arm_from_cam).conjugate();
     map->centre_world[k] = radius_m * Eigen::Vector3d(std::cos(phi[k]), std::sin(phi[k]), 0.0);
   }
+}
+
+double LensRadialScale(const PinholeCamera& camera, const Eigen::Vector2d& px) {
+  if (!camera.HasDistortion()) return 1.0;
+  const double rho = camera.CamRayFromImage(px).head<2>().squaredNorm();
+  const RadialLens lens{camera.k1, camera.k2, camera.k3};
+  return lens.Factor(rho) + 2.0 * rho * lens.FactorSlope(rho);
 }
 
 double ReprojectionErrorPx(const SparseMap& map, const PinholeCamera& camera, int kf,
@@ -247,6 +257,7 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
     for (size_t k = 0; k < tracks[t].obs.size(); ++k) {
       if (!map->obs_valid[t][k]) continue;
       const Observation& ob = tracks[t].obs[k];
+      if (LensRadialScale(camera, ob.px) < o.min_lens_scale) continue;
       const Eigen::Vector3d ray = camera.CamRayFromImage(ob.px);
       problem.AddResidualBlock(PoseReprojectionCost::Create(ray.head<2>(), camera.fx, lens),
                                reprojection_loss, cams.pose(ob.keyframe),

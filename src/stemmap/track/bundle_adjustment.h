@@ -58,6 +58,13 @@ struct BundleOptions {
   // centre is told apart from a turn (a shift) and from a step forward (which moves near points
   // more than far ones), so the prior only keeps keyframes with few points in check.
   double sigma_keyframe_focal_pct = 2.0;
+  // Observations where the lens squeezes the picture radially to less than this share of its
+  // scale at the centre (dr_distorted / dr_undistorted, a wide lens's outer edge) are left out of
+  // the adjustment: there a calibration's small error in its polynomial is a large one in angle
+  // (on a 100° lens calibrated from a board video, 0.08° at the picture's side edge against
+  // 0.005° at 0.83 of the way out), and points enter and leave the view there, so the focal
+  // length settled half a percent off and stems 10 m out moved by decimetres.
+  double min_lens_scale = 0.6;
   // Ceres sums over threads in whatever order they finish: more than one thread is faster but
   // the result then changes in its last digits from run to run.
   int threads = 1;
@@ -71,7 +78,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(BundleOptions, arm_radius_m, sig
                                                 max_points, max_iterations, function_tolerance,
                                                 early_round_function_tolerance,
                                                 dense_schur_max_keyframes, refine_focal,
-                                                sigma_keyframe_focal_pct, threads)
+                                                sigma_keyframe_focal_pct, min_lens_scale, threads)
 
 struct BundleSummary {
   int points = 0, observations = 0, rejected_observations = 0, iterations = 0;
@@ -99,6 +106,10 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
 // An autofocus pulls the focal length by up to about 1 % for the moments a near trunk fills the
 // middle of the view; a fixed focus leaves the estimates' noise, about 0.1 % at most at 960x540.
 std::vector<double> FocalScaleStrayPct(const std::vector<double>& scales);
+
+// The lens's radial scale at a pixel, d r_distorted / d r_undistorted = g + 2 rho g'(rho) at
+// the pixel's undistorted rho = |p|^2 (1 for a lens without distortion).
+double LensRadialScale(const PinholeCamera& camera, const Eigen::Vector2d& px);
 
 // Reprojection error (px) of one observation under the current map.
 double ReprojectionErrorPx(const SparseMap& map, const PinholeCamera& camera, int keyframe,

@@ -4,6 +4,7 @@
 
 #include <functional>
 #include <limits>
+#include <optional>
 
 #include "stemmap/core/error.h"
 #include "stemmap/core/rng.h"
@@ -17,13 +18,15 @@ namespace {
 // given, each keyframe's focal length is that many times the camera's at its arm angle (rad), as
 // an autofocus following near and far trunks would change it (truth.keyframe_focal_scale).
 struct SyntheticRig {
-  PinholeCamera camera = PinholeCamera::FromHfov(640, 360, 67.0);
+  PinholeCamera camera;
   SparseMap truth;
   std::vector<Track> tracks;
   std::vector<double> phi;
 
   explicit SyntheticRig(uint64_t seed,
-                        const std::function<double(double)>& focal_scale_at = nullptr) {
+                        const std::function<double(double)>& focal_scale_at = nullptr,
+                        const PinholeCamera& lens = PinholeCamera::FromHfov(640, 360, 67.0))
+      : camera(lens) {
     Rng rng(seed);
     const int n_kf = 80;
     const Eigen::Quaterniond mount =
@@ -53,7 +56,9 @@ struct SyntheticRig {
         const Eigen::Vector2d px =
             centre + truth.keyframe_focal_scale[k] * (camera.ImageFromCam(p) - centre) +
             0.3 * Eigen::Vector2d(rng.Normal(), rng.Normal());
-        if (px.x() < 0 || px.y() < 0 || px.x() > 639 || px.y() > 359) continue;
+        if (px.x() < 0 || px.y() < 0 || px.x() > camera.width - 1 || px.y() > camera.height - 1) {
+          continue;
+        }
         t.obs.push_back({k, px});
       }
       if (t.obs.size() >= 3) {
@@ -115,13 +120,15 @@ TEST(BundleAdjustment, DenseAndSparseSchurAgree) {
   }
 }
 
-// The rounds as tracking runs them, with the focal length refined.
-SparseMap Adjusted(const SyntheticRig& rig, const BundleOptions& o) {
+// The rounds as tracking runs them, with the rig's camera or the calibration given.
+SparseMap Adjusted(const SyntheticRig& rig, const BundleOptions& o,
+                   const std::optional<PinholeCamera>& calibration = std::nullopt) {
+  const PinholeCamera& camera = calibration ? *calibration : rig.camera;
   SparseMap map;
   PlaceOnCircle(rig.phi, 1.0, &map);
   for (int round = 0; round < 3; ++round) {
-    TriangulateTracks(o, rig.tracks, rig.camera, &map);
-    RunBundleAdjustment(o, rig.tracks, rig.camera, &map);
+    TriangulateTracks(o, rig.tracks, camera, &map);
+    RunBundleAdjustment(o, rig.tracks, camera, &map);
   }
   return map;
 }
@@ -204,6 +211,38 @@ TEST(BundleAdjustment, KeyframeFocalLengthsStrayOnlyWhereTheFocusBreathes) {
   }
 }
 
+// A 100° lens whose calibration is off only near the picture's side edges (0.08° there, 0.005°
+// at 0.83 of the way out), as `calibrate --lens wide` made it of a simulated board video: points
+// enter and leave the view at those edges, and the refined focal length follows them. Left out
+// where the lens squeezes the picture below min_lens_scale, they no longer pull it.
+TEST(BundleAdjustment, TheFocalLengthIsNotPulledByAWideLenssLeastSureEdges) {
+  const PinholeCamera lens = PinholeCamera::FromLensHfov(640, 360, 100.0, -0.25, 0.07, -0.008);
+  const SyntheticRig rig(14, nullptr, lens);
+  PinholeCamera calibration = lens;
+  calibration.k1 = -0.25035;
+  calibration.k2 = 0.07121;
+  calibration.k3 = -0.00915;
+  BundleOptions o;
+  o.max_points = 2000;
+  o.refine_focal = true;
+  EXPECT_NEAR(LensRadialScale(lens, {lens.cx, lens.cy}), 1.0, 1e-9);
+  EXPECT_LT(LensRadialScale(lens, {639.0, lens.cy}), o.min_lens_scale);
+  const double with_edges = std::abs(Adjusted(
+                                         rig,
+                                         [&] {
+                                           BundleOptions all = o;
+                                           all.min_lens_scale = 0.0;
+                                           return all;
+                                         }(),
+                                         calibration)
+                                         .focal_scale -
+                                     1.0);
+  const double without = std::abs(Adjusted(rig, o, calibration).focal_scale - 1.0);
+  EXPECT_GT(with_edges, 0.002);
+  EXPECT_LT(without, 0.5 * with_edges);
+  EXPECT_LT(without, 0.001);
+}
+
 TEST(BundleAdjustment, RejectsBadOptions) {
   BundleOptions o;
   o.arm_radius_m = 0.0;
@@ -220,6 +259,11 @@ TEST(BundleAdjustment, RejectsBadOptions) {
     BundleOptions t;
     t.sigma_keyframe_focal_pct = sigma_pct;
     EXPECT_THROW(t.Check(), InputError) << sigma_pct;
+  }
+  for (double scale : {-0.1, 1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    BundleOptions t;
+    t.min_lens_scale = scale;
+    EXPECT_THROW(t.Check(), InputError) << scale;
   }
   BundleOptions no_iterations;
   no_iterations.max_iterations = 0;
