@@ -17,6 +17,19 @@
 namespace stemmap::stems {
 namespace {
 
+// A finished fit: its circle, how tight, on how many silhouettes and views with both sides.
+TangentFit FitOf(const Eigen::Vector2d& centre, double radius_m, double rms_m, int rays,
+                 int two_sided_views) {
+  TangentFit f;
+  f.ok = true;
+  f.centre = centre;
+  f.radius_m = radius_m;
+  f.rms_m = rms_m;
+  f.rays = rays;
+  f.two_sided_views = two_sided_views;
+  return f;
+}
+
 // Rays tangent to the circle (centre, radius) from n camera centres on the unit circle at
 // angles phi0..phi1, both sides, with noise_rad of edge noise; clip_m(k, side) bites that many
 // metres off a ray at the stem (an occluder).
@@ -803,19 +816,8 @@ TEST(Tangent, AStemSeenInFewViewsStandsOnItsTwoSidedViews) {
 TEST(Tangent, ASettledFewViewsFitReplacesOneStillWidening) {
   const TangentOptions o;
   const Eigen::Vector2d centre0(7.87, -4.32);
-  TangentFit few;
-  few.ok = true;
-  few.centre = {7.745, -4.429};
-  few.radius_m = 0.151;
-  few.rms_m = 0.0053;
-  few.rays = 27;
-  few.two_sided_views = 3;
-  TangentFit settled = few;
-  settled.centre = {7.848, -4.535};
-  settled.radius_m = 0.188;
-  settled.rms_m = 0.0043;
-  settled.rays = 26;
-  settled.two_sided_views = 2;
+  const TangentFit few = FitOf({7.745, -4.429}, 0.151, 0.0053, 27, 3);
+  const TangentFit settled = FitOf({7.848, -4.535}, 0.188, 0.0043, 26, 2);
   EXPECT_TRUE(SettledFitReplaces(o, few, settled, centre0, 0.100));
   const std::vector<std::pair<const char*, std::function<void(TangentFit&)>>> worse = {
       {"fewer silhouettes", [](TangentFit& f) { f.rays = 22; }},
@@ -902,20 +904,10 @@ TEST(Tangent, DegenerateSystems) {
 TEST(Tangent, ASettledChosenFitReplacesOneStillNarrowing) {
   const TangentOptions o;
   const double radius0 = 0.142;
-  TangentFit chosen;
-  chosen.ok = true;
-  chosen.centre = {0.763, -6.175};
-  chosen.radius_m = 0.092;
-  chosen.rms_m = 0.0074;
-  chosen.rays = 36;
-  chosen.two_sided_views = 15;
+  TangentFit chosen = FitOf({0.763, -6.175}, 0.092, 0.0074, 36, 15);
   chosen.last_change_m = 0.013;
-  TangentFit settled = chosen;
-  settled.centre = {0.734, -6.219};
-  settled.radius_m = 0.058;
-  settled.rms_m = 0.0035;
-  settled.rays = 42;
-  settled.two_sided_views = 21;
+  TangentFit settled = FitOf({0.734, -6.219}, 0.058, 0.0035, 42, 21);
+  settled.last_change_m = 0.013;
   EXPECT_TRUE(SettledChosenFitReplaces(o, chosen, settled, radius0));
   const std::vector<std::pair<const char*, std::function<void(TangentFit&)>>> worse = {
       {"fewer silhouettes", [](TangentFit& f) { f.rays = 35; }},

@@ -62,9 +62,8 @@ void PlaceOnCircle(const std::vector<double>& phi, double radius_m, SparseMap* m
 
 double LensRadialScale(const PinholeCamera& camera, const Eigen::Vector2d& px) {
   if (!camera.HasDistortion()) return 1.0;
-  const double rho = camera.CamRayFromImage(px).head<2>().squaredNorm();
-  const RadialLens lens{camera.k1, camera.k2, camera.k3};
-  return lens.Factor(rho) + 2.0 * rho * lens.FactorSlope(rho);
+  return RadialScaleAt(RadialLens{camera.k1, camera.k2, camera.k3},
+                       camera.CamRayFromImage(px).head<2>().squaredNorm());
 }
 
 double ReprojectionErrorPx(const SparseMap& map, const PinholeCamera& camera, int kf,
@@ -257,8 +256,8 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
     for (size_t k = 0; k < tracks[t].obs.size(); ++k) {
       if (!map->obs_valid[t][k]) continue;
       const Observation& ob = tracks[t].obs[k];
-      if (LensRadialScale(camera, ob.px) < o.min_lens_scale) continue;
       const Eigen::Vector3d ray = camera.CamRayFromImage(ob.px);
+      if (RadialScaleAt(lens, ray.head<2>().squaredNorm()) < o.min_lens_scale) continue;
       problem.AddResidualBlock(PoseReprojectionCost::Create(ray.head<2>(), camera.fx, lens),
                                reprojection_loss, cams.pose(ob.keyframe),
                                map->point_world[t].data(), cams.focal_of(ob.keyframe));

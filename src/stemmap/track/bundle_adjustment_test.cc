@@ -215,7 +215,7 @@ TEST(BundleAdjustment, KeyframeFocalLengthsStrayOnlyWhereTheFocusBreathes) {
 // at 0.83 of the way out), as `calibrate --lens wide` made it of a simulated board video: points
 // enter and leave the view at those edges, and the refined focal length follows them. Left out
 // where the lens squeezes the picture below min_lens_scale, they no longer pull it.
-TEST(BundleAdjustment, TheFocalLengthIsNotPulledByAWideLenssLeastSureEdges) {
+TEST(BundleAdjustment, TheFocalLengthIsNotPulledByTheLeastSureEdgesOfAWideLens) {
   const PinholeCamera lens = PinholeCamera::FromLensHfov(640, 360, 100.0, -0.25, 0.07, -0.008);
   const SyntheticRig rig(14, nullptr, lens);
   PinholeCamera calibration = lens;

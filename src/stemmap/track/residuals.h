@@ -26,6 +26,12 @@ struct RadialLens {
   Eigen::Vector2d Distort(const Eigen::Vector2d& p) const { return p * Factor(p.squaredNorm()); }
 };
 
+// The lens's radial scale d|D(p)| / d|p| = g + 2 rho g'(rho) at rho = |p|^2: 1 at the centre,
+// falling towards a wide lens's edge, where the picture is squeezed.
+inline double RadialScaleAt(const RadialLens& lens, double rho) {
+  return lens.Factor(rho) + 2.0 * rho * lens.FactorSlope(rho);
+}
+
 // Reprojection error in pixels of a world point X seen at normalised image point (u, v) (the
 // lens's distortion removed), with a focal scale k (1 = the starting focal length f, refined from
 // the closed turn):
