@@ -1,8 +1,14 @@
 #include "stemmap/track/track.h"
 
 #include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <string>
 
 #include "stemmap/core/error.h"
+#include "stemmap/core/io.h"
+#include "stemmap/track/track_io.h"
 
 namespace stemmap::track {
 namespace {
@@ -27,6 +33,49 @@ TEST(CalibrationFocalWarning, WarnsOnlyWhenTheTurnSaysTheFocalLengthIsAnother) {
   EXPECT_EQ(CalibrationFocalWarning(o, 1.15), "");
   o.calibration_focal_tolerance = 0;
   EXPECT_THROW(o.Check(), InputError);
+}
+
+TEST(TrackOptions, BreathingNeedsAStrayAndAtLeastOneKeyframe) {
+  TrackOptions o;
+  o.breathing_min_pct = -0.1;
+  EXPECT_THROW(o.Check(), InputError);
+  o = TrackOptions();
+  o.breathing_min_keyframes = 0;
+  try {
+    o.Check();
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("focus breathing"), std::string::npos) << e.what();
+  }
+}
+
+// A track folder whose per-keyframe focal lengths do not match its keyframes is refused, naming
+// the file, rather than redrawing some keyframes and not others.
+TEST(ReadTrackFolder, RefusesFocalScalesThatDoNotMatchTheKeyframes) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("stemmap_track_focal_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::vector<StampedPose> keyframes;
+  for (int k = 0; k < 4; ++k) keyframes.push_back({0.5 * k, Rigid3d{}});
+  WriteTumTrajectory(dir / "keyframes.tum", keyframes);
+  nlohmann::json track = {{"camera", PinholeCamera::FromHfov(640, 360, 67.0)}};
+  track["keyframe_focal_scale"] = {1.0, 1.001, 0.999};
+  WriteJsonAtomic(dir / "summary.json", {{"track", track}});
+  try {
+    ReadTrackFolder(dir);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("3 keyframe focal scales for 4 keyframes"), std::string::npos) << what;
+    EXPECT_NE(what.find("summary.json"), std::string::npos) << what;
+  }
+  track["keyframe_focal_scale"] = "not a list";
+  WriteJsonAtomic(dir / "summary.json", {{"track", track}});
+  EXPECT_THROW(ReadTrackFolder(dir), InputError);
+  track["keyframe_focal_scale"] = {1.0, 1.001, 0.999, 1.0};
+  WriteJsonAtomic(dir / "summary.json", {{"track", track}});
+  EXPECT_EQ(ReadTrackFolder(dir).keyframe_focal_scale.size(), 4u);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
