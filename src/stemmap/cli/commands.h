@@ -5,7 +5,9 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
+#include "stemmap/core/enum_names.h"
 #include "stemmap/core/io.h"
 #include "stemmap/track/track.h"
 
@@ -39,6 +41,24 @@ std::function<void()> AddOptionsFile(CLI::App* sub, Options* opt, const std::str
   return [file, opt] {
     if (!file->empty()) *opt = OverlayOptions(ReadOptionsJson<Options>(*file), *opt);
   };
+}
+
+// A flag taking one of an enum's names (`names`), stored into *value; the help lists the names and
+// the default (*value's name).
+template <typename E, size_t N>
+CLI::Option* AddEnumOption(CLI::App* sub, const std::string& flag, E* value,
+                           const EnumNames<E, N>& names, const std::string& help) {
+  std::vector<std::string> choices;
+  for (const auto& [e, name] : names) choices.emplace_back(name);
+  return sub
+      ->add_option_function<std::string>(
+          flag,
+          [value, names, flag](const std::string& name) {
+            *value = EnumFromName(names, name, flag);
+          },
+          help)
+      ->check(CLI::IsMember(choices))
+      ->default_str(std::string(EnumName(names, *value)));
 }
 
 // Applies --log-level before a subcommand runs.

@@ -52,12 +52,10 @@ void AddMeasureFlags(CLI::App* sub, pipeline::ProcessOptions* opt) {
   sub->add_option("--breast-height", opt->measure.stems.breast_height_m,
                   "Height of the DBH above the ground at the stem (m)")
       ->capture_default_str();
-  sub->add_option("--dbh-method", opt->measure.stems.dbh_method,
-                  "tangent (rays tangent to the silhouettes in every view; the slice width where "
-                  "none fit), slice (robust width of a 0.1 m slice across the view) or circle "
-                  "(fitted to that slice)")
-      ->check(CLI::IsMember({"tangent", "slice", "circle"}))
-      ->capture_default_str();
+  AddEnumOption(sub, "--dbh-method", &opt->measure.stems.dbh_method, stems::kDbhMethodNames,
+                "tangent (rays tangent to the silhouettes in every view; the slice width where "
+                "none fit), slice (robust width of a 0.1 m slice across the view) or circle "
+                "(fitted to that slice)");
   sub->add_flag("--require-silhouette,!--keep-unconfirmed", opt->measure.require_silhouette,
                 "Drop cloud parts whose silhouettes were not found (default); "
                 "--keep-unconfirmed keeps them, flagged no_silhouette");

@@ -26,12 +26,10 @@ void AddTrackOptions(CLI::App* sub, track::TrackOptions* opt, std::filesystem::p
                   "image_width, image_height)")
       ->check(CLI::ExistingFile)
       ->excludes(hfov);
-  sub->add_option("--focal", opt->focal,
-                  "Focal length in bundle adjustment: auto or refine (refined from the "
-                  "calibration's or --hfov's), or fixed (the calibration's) "
-                  "or refine")
-      ->check(CLI::IsMember({"auto", "fixed", "refine"}))
-      ->capture_default_str();
+  AddEnumOption(sub, "--focal", &opt->focal, track::kFocalModeNames,
+                "Focal length in bundle adjustment: refine (the calibration's or --hfov's, "
+                "refined by the closed turn), fixed (the calibration's: where the focus stays "
+                "locked as it was for the calibration, best with a wide lens) or auto (refine)");
   sub->add_option("--camera-height", opt->camera_height_m,
                   "Arm height above the ground at the tripod, measured (m; default: estimated "
                   "from the ground in view)");

@@ -17,4 +17,15 @@ std::string CheckMessage(const Options& o) {
   return "";
 }
 
+// The InputError message `f` throws, or "" when it throws none (for tests).
+template <typename F>
+std::string InputErrorMessage(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
 }  // namespace stemmap

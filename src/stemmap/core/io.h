@@ -47,6 +47,8 @@ Options ReadOptionsJson(const std::filesystem::path& path,
     options = j.get<Options>();
   } catch (const nlohmann::json::exception& e) {
     throw InputError(path.string() + ": " + e.what());
+  } catch (const InputError& e) {  // a value its option does not take (an enum's unknown name)
+    throw InputError(path.string() + ": " + e.what());
   }
   CheckNoUnknownKeys(path, j, nlohmann::json(options), unknown_keys);
   return options;

@@ -10,6 +10,7 @@
 #include <string_view>
 #include <vector>
 
+#include "stemmap/core/enum_names.h"
 #include "stemmap/gis/georef.h"
 #include "stemmap/stems/stems.h"
 
@@ -63,8 +64,14 @@ enum class TreeTableFormat {
   // views saw: half a turn plus their spread), and FSCT's height, volume and crown columns empty.
   kFsct,
 };
-NLOHMANN_JSON_SERIALIZE_ENUM(TreeTableFormat, {{TreeTableFormat::kFortls, "fortls"},
-                                               {TreeTableFormat::kFsct, "fsct"}})
+inline constexpr EnumNames<TreeTableFormat, 2> kTreeTableFormatNames = {
+    {{TreeTableFormat::kFortls, "fortls"}, {TreeTableFormat::kFsct, "fsct"}}};
+inline void to_json(nlohmann::json& j, TreeTableFormat f) {
+  j = std::string(EnumName(kTreeTableFormatNames, f));
+}
+inline void from_json(const nlohmann::json& j, TreeTableFormat& f) {
+  f = EnumFromJson(kTreeTableFormatNames, j, "tree table format");
+}
 // The file name the tool reads: tree.tls.csv, tree_data.csv.
 std::string_view TreeTableFileName(TreeTableFormat format);
 // Writes `rows` atomically to `path` in `format`; `plot_id` and `video_name` fill FORTLS's id and

@@ -4,7 +4,9 @@
 
 #include <cmath>
 #include <sstream>
+#include <vector>
 
+#include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 
 namespace stemmap::gis {
@@ -53,6 +55,14 @@ TEST(TreeRows, CarryBearingsEdgeFlagsAndLocalOffsets) {
   const std::vector<TreeRow> plain = TreeRows({}, TwoStems(), Georeference({}));
   EXPECT_FALSE(plain[0].bearing_deg.has_value());
   EXPECT_EQ(plain[0].local_xy_m, Eigen::Vector2d(0.0, 5.0));
+}
+
+// The formats are saved by name (`process_options.json` `exports`), and only their names read back.
+TEST(TreeTables, FormatsReadBackByNameOnly) {
+  const nlohmann::json j = std::vector<TreeTableFormat>{TreeTableFormat::kFsct};
+  EXPECT_EQ(j.dump(), R"(["fsct"])");
+  EXPECT_EQ(j.get<std::vector<TreeTableFormat>>().front(), TreeTableFormat::kFsct);
+  EXPECT_THROW((void)nlohmann::json("3dfin").get<TreeTableFormat>(), InputError);
 }
 
 TEST(TreeTables, FortlsGetsItsColumnsAndUnits) {

@@ -71,7 +71,7 @@ std::vector<std::pair<std::string, std::string>> RunMetadata(const ProcessOption
       {"plot radius (horizontal)", fmt::format("{:g} m", o.plot_radius_m)},
       {"breast height", fmt::format("{:g} m", o.measure.stems.breast_height_m)},
       {"smallest DBH counted", fmt::format("{:g} cm", o.measure.min_dbh_cm)},
-      {"DBH method", o.measure.stems.dbh_method}};
+      {"DBH method", std::string(stems::DbhMethodName(o.measure.stems.dbh_method))}};
   const gis::GeoreferenceOptions& g = o.georef;
   if (g.HasLatLonCentre()) {
     m.emplace_back("plot centre (WGS 84)",

@@ -65,7 +65,7 @@ TEST(ProcessOptions, EveryOptionRoundTripsThroughItsFile) {
   o.track.bundle.sigma_mount_deg = 0.9;
   o.track.calibration = "/phones/a.yaml";
   o.dense.stereo.block_size = 7;
-  o.measure.stems.dbh_method = "slice";
+  o.measure.stems.dbh_method = stems::DbhMethod::kSlice;
   o.measure.tangent.wide_start_scales = {1.4};
   o.measure.bark_depth.min_pairs = 4;
   o.mask.mean = {0.5, 0.5, 0.5};

@@ -12,23 +12,10 @@
 namespace stemmap::sim {
 
 PhonePreset ParsePhonePreset(const std::string& s) {
-  if (s == "ideal") return PhonePreset::kIdeal;
-  if (s == "main") return PhonePreset::kMain;
-  if (s == "wide") return PhonePreset::kWide;
-  throw InputError(fmt::format("unknown phone '{}': use ideal, main or wide", s));
+  return EnumFromName(kPhonePresetNames, s, "phone");
 }
 
-std::string ToString(PhonePreset p) {
-  switch (p) {
-    case PhonePreset::kMain:
-      return "main";
-    case PhonePreset::kWide:
-      return "wide";
-    case PhonePreset::kIdeal:
-      break;
-  }
-  return "ideal";
-}
+std::string ToString(PhonePreset p) { return std::string(EnumName(kPhonePresetNames, p)); }
 
 void PhoneOptions::Check() const {
   if (!(readout_ms >= 0.0 && readout_ms <= 100.0)) {

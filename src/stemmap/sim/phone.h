@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "stemmap/camera/camera.h"
+#include "stemmap/core/enum_names.h"
 #include "stemmap/sim/rig.h"
 
 namespace stemmap::sim {
@@ -14,11 +15,14 @@ namespace stemmap::sim {
 // global shutter with a fixed focal length in still air; `main` a phone's main camera (a rolling
 // shutter, residual distortion, focus breathing, a breeze); `wide` its ~100° wide camera.
 enum class PhonePreset { kIdeal, kMain, kWide };
+inline constexpr EnumNames<PhonePreset, 3> kPhonePresetNames = {
+    {{PhonePreset::kIdeal, "ideal"}, {PhonePreset::kMain, "main"}, {PhonePreset::kWide, "wide"}}};
 PhonePreset ParsePhonePreset(const std::string& s);
 std::string ToString(PhonePreset p);
-NLOHMANN_JSON_SERIALIZE_ENUM(PhonePreset, {{PhonePreset::kIdeal, "ideal"},
-                                           {PhonePreset::kMain, "main"},
-                                           {PhonePreset::kWide, "wide"}})
+inline void to_json(nlohmann::json& j, PhonePreset p) { j = ToString(p); }
+inline void from_json(const nlohmann::json& j, PhonePreset& p) {
+  p = EnumFromJson(kPhonePresetNames, j, "phone");
+}
 
 // What a phone camera adds to the ideal one over a clip, beyond its lens (the distortion lives
 // with the lens, in SimulateOptions). All off by default.

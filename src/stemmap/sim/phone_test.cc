@@ -56,6 +56,10 @@ TEST(Phone, PresetsFillTheirValues) {
   EXPECT_EQ(back.readout_ms, 25.0);
   EXPECT_EQ(ParsePhonePreset("wide"), PhonePreset::kWide);
   EXPECT_THROW(ParsePhonePreset("tele"), InputError);
+  // An options file's unknown preset is an error, not the ideal camera.
+  nlohmann::json tele = j;
+  tele["preset"] = "tele";
+  EXPECT_THROW((void)tele.get<PhoneOptions>(), InputError);
 }
 
 TEST(Phone, ChecksRefuseImplausibleEffects) {

@@ -678,7 +678,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
         verdict = SilhouetteVerdict::kKeepCloud;
       }
     }
-    if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == "tangent") {
+    if (verdict == SilhouetteVerdict::kKeepCloud && o.stems.dbh_method == DbhMethod::kTangent) {
       s.flags.Set(f.ok && f.two_sided_views < 3 ? StemFlag::kOneSided : StemFlag::kNoSilhouette);
     }
     // Stereo smears a stem toward what stands behind it on the same bearing, and the smear's
@@ -716,7 +716,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
             "show one at a time ({} and {} views)",
             s.centre_xy.x(), s.centre_xy.y(), side_views[0], side_views[1]);
         s.flags.Set(StemFlag::kOccluded);
-        if (o.stems.dbh_method == "tangent") s.flags.Set(StemFlag::kNoSilhouette);
+        if (o.stems.dbh_method == DbhMethod::kTangent) s.flags.Set(StemFlag::kNoSilhouette);
         RefinedStem kept_on_cloud{SilhouetteVerdict::kKeepCloud, std::move(s)};
         kept_on_cloud.sides_past_nearer = true;
         kept_on_cloud.stem.evidence.sides_apart = true;
@@ -758,7 +758,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     s.centre_xy = centre;
     s.n_views = f.views;
     s.arc_deg = f.arc_deg;
-    if (o.stems.dbh_method == "tangent") {
+    if (o.stems.dbh_method == DbhMethod::kTangent) {
       s.dbh_m = s.dbh_tangent_m;
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }

@@ -50,9 +50,6 @@ void StemOptions::Check() const {
   }
   if (!(search_radius_m > 1)) throw InputError("search radius must exceed 1 m");
   if (!(band_high_m > band_low_m)) throw InputError("detection band is empty");
-  if (dbh_method != "tangent" && dbh_method != "slice" && dbh_method != "circle") {
-    throw InputError(fmt::format("DBH method '{}' is not tangent, slice or circle", dbh_method));
-  }
   if (!(confirm_lean_deg > 0 && confirm_lean_deg <= max_lean_deg)) {
     throw InputError("the lean that needs confirming must lie in (0, max_lean_deg]");
   }
@@ -518,7 +515,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   s.face_range_m = face_m;
   s.ground_z_m = ground.UphillHeight(c.x(), c.y(), r);
   s.floor_z_m = ground.FloorHeight(c.x(), c.y());
-  s.dbh_m = o.dbh_method == "circle" ? s.dbh_circle_m : s.dbh_slice_m;  // tangent: later
+  s.dbh_m = o.dbh_method == DbhMethod::kCircle ? s.dbh_circle_m : s.dbh_slice_m;  // tangent: later
   s.dbh_sd_m = rms;
   s.n_points = static_cast<int>(slice.size());
   s.n_views = static_cast<int>(views.size());

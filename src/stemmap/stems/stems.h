@@ -9,10 +9,25 @@
 #include <string_view>
 #include <vector>
 
+#include "stemmap/core/enum_names.h"
 #include "stemmap/dense/stereo.h"
 #include "stemmap/stems/ground.h"
 
 namespace stemmap::stems {
+
+// How a stem's DBH is read: kTangent (rays tangent to the silhouettes, the slice width where no
+// silhouette fits; the default, measured best), kSlice (the paper's robust width across the view)
+// or kCircle (fitted to the slice). See docs/benchmarks-log.md. In files and on the command line:
+// tangent, slice, circle.
+enum class DbhMethod { kTangent, kSlice, kCircle };
+inline constexpr EnumNames<DbhMethod, 3> kDbhMethodNames = {{{DbhMethod::kTangent, "tangent"},
+                                                             {DbhMethod::kSlice, "slice"},
+                                                             {DbhMethod::kCircle, "circle"}}};
+inline std::string_view DbhMethodName(DbhMethod m) { return EnumName(kDbhMethodNames, m); }
+inline void to_json(nlohmann::json& j, DbhMethod m) { j = std::string(DbhMethodName(m)); }
+inline void from_json(const nlohmann::json& j, DbhMethod& m) {
+  m = EnumFromJson(kDbhMethodNames, j, "DBH method");
+}
 
 struct StemOptions {
   double breast_height_m = 1.37;  // above the local ground at the stem
@@ -71,10 +86,7 @@ struct StemOptions {
   // stem's points beside it, and rays to what stands behind graze its part: real stems' parts
   // reach 40-50 %; the silhouettes and the bark judge those.
   double free_space_veto = 0.5;
-  // tangent (rays tangent to the silhouettes, the slice width where no silhouette fits; the
-  // default, measured best), slice (the paper's robust width across the view) or circle (fitted
-  // to the slice). See docs/benchmarks-log.md.
-  std::string dbh_method = "tangent";
+  DbhMethod dbh_method = DbhMethod::kTangent;
   void Check() const;
 };
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps

@@ -162,9 +162,22 @@ TEST(StemOptions, CheckRejectsOutOfRangeValues) {
   o = StemOptions();
   o.mixed_part_lone_core_max_share = 1.5;
   EXPECT_EQ(CheckMessage(o), "mixed_part_lone_core_max_share must be in [0, 1]");
-  o = StemOptions();
-  o.dbh_method = "girth";
-  EXPECT_EQ(CheckMessage(o), "DBH method 'girth' is not tangent, slice or circle");
+}
+
+// The DBH method reads back by name from an options file, and a name it does not have is an
+// error naming the choices, not the first method.
+TEST(Stems, ReadsTheDbhMethodByNameAndRefusesAnother) {
+  StemOptions o;
+  o.dbh_method = DbhMethod::kSlice;
+  const nlohmann::json j = o;
+  EXPECT_EQ(j.at("dbh_method"), "slice");
+  EXPECT_EQ(j.get<StemOptions>().dbh_method, DbhMethod::kSlice);
+  nlohmann::json girth = j;
+  girth["dbh_method"] = "girth";
+  EXPECT_EQ(InputErrorMessage([&] { (void)girth.get<StemOptions>(); }),
+            "DBH method 'girth' is not tangent, slice or circle");
+  girth["dbh_method"] = 2;
+  EXPECT_THROW((void)girth.get<StemOptions>(), InputError);
 }
 
 // The far spread of TwoTrunksAndAGhost.
@@ -177,7 +190,7 @@ TEST(Stems, DetectsTrunksAndVetoesAGhost) {
   const GroundGrid ground(cloud, 13);
   EXPECT_NEAR(ground.Height(3, 3), 0.0, 0.05);
   StemOptions o;
-  o.dbh_method = "circle";
+  o.dbh_method = DbhMethod::kCircle;
   const StemsResult r = DetectStems(o, cloud, ground);
   // The thin spread of far points is too wide for a stem; its denser cores wait for silhouettes.
   const std::vector<Stem> stems = StemsOnTheirPoints(r, InTheFarSpread);
@@ -204,7 +217,7 @@ TEST(Stems, TrunkMaskKeepsOtherSurfacesOut) {
   }
   const GroundGrid ground(cloud, 13);
   StemOptions o;
-  o.dbh_method = "circle";
+  o.dbh_method = DbhMethod::kCircle;
   const StemsResult r = DetectStems(o, cloud, ground);
   const std::vector<Stem> stems = StemsOnTheirPoints(r, InTheFarSpread);
   ASSERT_EQ(stems.size(), 1u);

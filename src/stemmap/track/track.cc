@@ -116,9 +116,6 @@ void TrackOptions::Check() const {
   if (camera_height_m < 0 || camera_height_m > 3.0) {
     throw InputError(fmt::format("--camera-height {} m is outside 0-3 m", camera_height_m));
   }
-  if (focal != "auto" && focal != "fixed" && focal != "refine") {
-    throw InputError(fmt::format("focal mode '{}' is not auto, fixed or refine", focal));
-  }
   if (bundle_rounds < 1) throw InputError("at least one bundle adjustment round is needed");
   if (!(breathing_min_pct >= 0) || breathing_min_keyframes < 1) {
     throw InputError(fmt::format(
@@ -263,7 +260,7 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
   SparseMap map;
   BundleOptions bo = o.bundle;
   bo.arm_radius_m = o.arm_radius_m;
-  bo.refine_focal = o.focal != "fixed";
+  bo.refine_focal = o.focal != FocalMode::kFixed;
   PlaceOnCircle(phi, o.arm_radius_m, &map);
   nlohmann::json rounds = nlohmann::json::array();
   BundleSummary bs;

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "stemmap/camera/camera.h"
+#include "stemmap/core/enum_names.h"
 #include "stemmap/core/pose.h"
 #include "stemmap/track/bundle_adjustment.h"
 #include "stemmap/track/frame_poses.h"
@@ -21,6 +22,17 @@ namespace stemmap::track {
 // current phones filming 16:9 video (measure yours with `stemmap calibrate` for best results).
 inline constexpr double kDefaultPhoneHfovDeg = 68.0;
 
+// The focal length in bundle adjustment (TrackOptions::focal); in files and on the command line:
+// auto, fixed, refine.
+enum class FocalMode { kAuto, kFixed, kRefine };
+inline constexpr EnumNames<FocalMode, 3> kFocalModeNames = {
+    {{FocalMode::kAuto, "auto"}, {FocalMode::kFixed, "fixed"}, {FocalMode::kRefine, "refine"}}};
+inline std::string_view FocalModeName(FocalMode m) { return EnumName(kFocalModeNames, m); }
+inline void to_json(nlohmann::json& j, FocalMode m) { j = std::string(FocalModeName(m)); }
+inline void from_json(const nlohmann::json& j, FocalMode& m) {
+  m = EnumFromJson(kFocalModeNames, j, "focal mode");
+}
+
 struct TrackOptions {
   double arm_radius_m = 1.0;
   double hfov_deg = kDefaultPhoneHfovDeg;  // used when `calibration` is empty
@@ -28,9 +40,11 @@ struct TrackOptions {
   // Refine the focal length in bundle adjustment, from the calibration's (or --hfov's): the
   // closed loop makes it observable. A far stem's range rests on the small excess of its apparent
   // turn over the camera's, so a focal length 0.7 % off (a phone's autofocus breathing, a
-  // calibration at another focus) puts stems 10 m out 6 % too far; refined, it does not. "auto"
-  // and "refine" refine it, "fixed" keeps the calibration's.
-  std::string focal = "auto";  // auto, fixed or refine
+  // calibration at another focus) puts stems 10 m out 6 % too far; refined, it does not. kAuto
+  // and kRefine refine it, kFixed keeps the calibration's (better where the focus stays locked
+  // as it was for the calibration and the turn pins the focal length down poorly: a strongly
+  // distorting wide lens, docs/benchmarks.md "Real phones").
+  FocalMode focal = FocalMode::kAuto;
   // Arm height above the ground at the tripod, measured with a tape (m). 0: estimate it from the
   // ground seen around the plot, which misses any bump right under the tripod (the camera faces
   // outward and sees the ground only from ~4 m out).

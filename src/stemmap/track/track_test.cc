@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <string>
 
+#include "stemmap/core/check_message.h"
 #include "stemmap/core/error.h"
 #include "stemmap/core/io.h"
 #include "stemmap/track/track_io.h"
@@ -47,6 +48,24 @@ TEST(TrackOptions, BreathingNeedsAStrayAndAtLeastOneKeyframe) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("focus breathing"), std::string::npos) << e.what();
   }
+}
+
+// The focal mode is saved and read back by name; an options file with a mode that does not exist
+// is refused, naming the file and the choices.
+TEST(TrackOptions, TheFocalModeReadsBackByNameAndNoOtherName) {
+  TrackOptions o;
+  o.focal = FocalMode::kFixed;
+  const nlohmann::json j = o;
+  EXPECT_EQ(j.at("focal"), "fixed");
+  EXPECT_EQ(j.get<TrackOptions>().focal, FocalMode::kFixed);
+  const std::filesystem::path path = std::filesystem::temp_directory_path() /
+                                     ("stemmap_focal_mode_" + std::to_string(getpid()) + ".json");
+  WriteFileAtomic(path, R"({"focal": "sharp"})");
+  const std::string what = InputErrorMessage([&] { (void)ReadOptionsJson<TrackOptions>(path); });
+  EXPECT_NE(what.find(path.filename().string()), std::string::npos) << what;
+  EXPECT_NE(what.find("focal mode 'sharp' is not auto, fixed or refine"), std::string::npos)
+      << what;
+  std::filesystem::remove(path);
 }
 
 // A track folder whose per-keyframe focal lengths do not match its keyframes is refused, naming
