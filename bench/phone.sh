@@ -2,7 +2,9 @@
 # Real-phone camera effects against the ideal camera, on the same plots: each plot is rendered
 # with the ideal camera, with each effect of the `main` phone preset alone (rolling shutter,
 # residual distortion, focus breathing, wind), with the whole preset, with the preset and
-# in-camera stabilisation, and with the `wide` preset (100°); every render goes through `process`
+# in-camera stabilisation, with the `wide` preset (100°), and with that preset's focus locked
+# (`wide-locked`: no breathing) processed with `--focal fixed`, as the README advises for that
+# lens; every render goes through `process`
 # with the truth's calibration (the lens as a calibration gives it; for `wide`, what `stemmap
 # calibrate --lens wide` makes of the simulated board video of its lens), the measured camera height and, for the rolling shutter, the
 # preset's readout (`--readout-ms`). Reports per plot and variant recall, precision, DBH MAE and
@@ -27,6 +29,7 @@ variants=(
   "main:--phone main:--readout-ms 25"
   "main-stabilised:--phone main --stabilisation:--readout-ms 25"
   "wide:--phone wide:--readout-ms 30"
+  "wide-locked:--phone wide --breathing-pct 0:--readout-ms 30 --focal fixed"
 )
 
 rows="$data/phone_rows.txt"
@@ -46,8 +49,8 @@ for kind in $kinds; do
       # calibrated by `stemmap calibrate --lens wide` from the simulated board video of its lens.
       calib_from="$dir/truth.json"
       case "$name" in *-stabilised) calib_from="$data/$kind-$seed/main/truth.json" ;; esac
-      if [ "$name" = wide ]; then
-        board="$dir/board"
+      if [ "${name%%-*}" = wide ]; then
+        board="$data/$kind-$seed/wide/board"  # one board video of the lens for both
         if [ ! -f "$board/calibration.yaml" ]; then
           "$bin" --log-level warn simulate --checkerboard --phone wide --seed "$seed" \
             --width "$width" --height "$height" --out "$board" > "$dir.board.log" 2>&1
