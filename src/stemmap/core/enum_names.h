@@ -57,3 +57,13 @@ E EnumFromJson(const EnumNames<E, N>& names, const nlohmann::json& j, std::strin
 }
 
 }  // namespace stemmap
+
+// Defines to_json (the value's name) and from_json (EnumFromJson; `what` names the option in
+// errors) for enum E with names table NAMES, in E's namespace.
+#define STEMMAP_ENUM_JSON(E, NAMES, WHAT)                    \
+  inline void to_json(nlohmann::json& j, E value) {          \
+    j = std::string(::stemmap::EnumName(NAMES, value));      \
+  }                                                          \
+  inline void from_json(const nlohmann::json& j, E& value) { \
+    value = ::stemmap::EnumFromJson(NAMES, j, WHAT);         \
+  }

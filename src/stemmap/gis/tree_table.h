@@ -66,12 +66,7 @@ enum class TreeTableFormat {
 };
 inline constexpr EnumNames<TreeTableFormat, 2> kTreeTableFormatNames = {
     {{TreeTableFormat::kFortls, "fortls"}, {TreeTableFormat::kFsct, "fsct"}}};
-inline void to_json(nlohmann::json& j, TreeTableFormat f) {
-  j = std::string(EnumName(kTreeTableFormatNames, f));
-}
-inline void from_json(const nlohmann::json& j, TreeTableFormat& f) {
-  f = EnumFromJson(kTreeTableFormatNames, j, "tree table format");
-}
+STEMMAP_ENUM_JSON(TreeTableFormat, kTreeTableFormatNames, "tree table format")
 // The file name the tool reads: tree.tls.csv, tree_data.csv.
 std::string_view TreeTableFileName(TreeTableFormat format);
 // Writes `rows` atomically to `path` in `format`; `plot_id` and `video_name` fill FORTLS's id and

@@ -19,10 +19,7 @@ inline constexpr EnumNames<PhonePreset, 3> kPhonePresetNames = {
     {{PhonePreset::kIdeal, "ideal"}, {PhonePreset::kMain, "main"}, {PhonePreset::kWide, "wide"}}};
 PhonePreset ParsePhonePreset(const std::string& s);
 std::string ToString(PhonePreset p);
-inline void to_json(nlohmann::json& j, PhonePreset p) { j = ToString(p); }
-inline void from_json(const nlohmann::json& j, PhonePreset& p) {
-  p = EnumFromJson(kPhonePresetNames, j, "phone");
-}
+STEMMAP_ENUM_JSON(PhonePreset, kPhonePresetNames, "phone")
 
 // What a phone camera adds to the ideal one over a clip, beyond its lens (the distortion lives
 // with the lens, in SimulateOptions). All off by default.

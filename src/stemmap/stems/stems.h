@@ -24,10 +24,7 @@ inline constexpr EnumNames<DbhMethod, 3> kDbhMethodNames = {{{DbhMethod::kTangen
                                                              {DbhMethod::kSlice, "slice"},
                                                              {DbhMethod::kCircle, "circle"}}};
 inline std::string_view DbhMethodName(DbhMethod m) { return EnumName(kDbhMethodNames, m); }
-inline void to_json(nlohmann::json& j, DbhMethod m) { j = std::string(DbhMethodName(m)); }
-inline void from_json(const nlohmann::json& j, DbhMethod& m) {
-  m = EnumFromJson(kDbhMethodNames, j, "DBH method");
-}
+STEMMAP_ENUM_JSON(DbhMethod, kDbhMethodNames, "DBH method")
 
 struct StemOptions {
   double breast_height_m = 1.37;  // above the local ground at the stem

@@ -28,10 +28,7 @@ enum class FocalMode { kAuto, kFixed, kRefine };
 inline constexpr EnumNames<FocalMode, 3> kFocalModeNames = {
     {{FocalMode::kAuto, "auto"}, {FocalMode::kFixed, "fixed"}, {FocalMode::kRefine, "refine"}}};
 inline std::string_view FocalModeName(FocalMode m) { return EnumName(kFocalModeNames, m); }
-inline void to_json(nlohmann::json& j, FocalMode m) { j = std::string(FocalModeName(m)); }
-inline void from_json(const nlohmann::json& j, FocalMode& m) {
-  m = EnumFromJson(kFocalModeNames, j, "focal mode");
-}
+STEMMAP_ENUM_JSON(FocalMode, kFocalModeNames, "focal mode")
 
 struct TrackOptions {
   double arm_radius_m = 1.0;
