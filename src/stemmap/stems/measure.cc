@@ -18,6 +18,9 @@ void MeasureOptions::Check() const {
   tangent.Check();
   bark_depth.Check();
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
+  if (!(sapling_outline_max_dbh_cm >= 0 && sapling_outline_max_dbh_cm <= 30)) {
+    throw InputError("the widest sapling's outline must lie in [0, 30] cm");
+  }
   ground.Check();
   uncertainty.Check();
   if (!(one_sided_min_cloud_radius_m >= 0)) {

@@ -22,6 +22,15 @@ struct MeasureOptions {
   TangentOptions tangent;       // the silhouettes' fit
   BarkDepthOptions bark_depth;  // the fit's distance from the bark
   double min_dbh_cm = 7.0;      // stems thinner than this are not listed (a fit closed on a twig)
+  // A sapling's leaves, or stereo's smear of a stem a few pixels wide, make its part wider than
+  // the stem, and leaves hide its outline in most views. Where the silhouettes outline a stem
+  // thinner than this (cm) inside such a part (narrower than it, down to
+  // TangentOptions::narrow_min_share of it), both sides in three views on one circle to about a
+  // pixel (tight_fit_rms_px), and the bark does not line up on that circle (a circle inside a
+  // stem's outline lies on its bark; a stem a few pixels wide carries none from view to view),
+  // the fit places the sapling at its own width (left out under min_dbh_cm); otherwise the
+  // part's width would stand for it, flagged no_silhouette. 0: off.
+  double sapling_outline_max_dbh_cm = 7.0;
   // The terrain under the plot, out to the search radius and 2 m more.
   GroundOptions ground;
   UncertaintyOptions uncertainty;  // each stem's DBH SD and detection confidence
@@ -152,14 +161,14 @@ struct MeasureOptions {
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
-    MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, ground, uncertainty, require_silhouette,
-    keep_bark_confirmed_cloud, one_sided_max_over_cloud, one_sided_min_cloud_radius_m,
-    min_core_share, narrow_fit_share, min_bark_gap_m, larger_cloud_part_gap_m,
-    larger_cloud_only_max_rms_px, larger_cloud_whole_where_open, wide_fit_scale,
-    wide_fit_min_bark_ncc, loose_fit_rms_px, tight_fit_rms_px, loose_wider_max_over_cloud,
-    narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
-    outline_over_bark_cloud_share, weak_on_bark_max_rms_px, leafy_edge_scatter_m,
-    leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views,
+    MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, sapling_outline_max_dbh_cm, ground,
+    uncertainty, require_silhouette, keep_bark_confirmed_cloud, one_sided_max_over_cloud,
+    one_sided_min_cloud_radius_m, min_core_share, narrow_fit_share, min_bark_gap_m,
+    larger_cloud_part_gap_m, larger_cloud_only_max_rms_px, larger_cloud_whole_where_open,
+    wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px, tight_fit_rms_px,
+    loose_wider_max_over_cloud, narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share,
+    outline_over_bark_rms_px, outline_over_bark_cloud_share, weak_on_bark_max_rms_px,
+    leafy_edge_scatter_m, leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views,
     one_side_past_nearer_min_views, hidden_side_min_gain, hidden_side_stand_min_stems,
     hidden_side_min_seen_share)
 

@@ -84,6 +84,11 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   const bool narrower_two_sided = two_sided &&
                                   f.two_sided_views >= two_sided_share * f.tried_views &&
                                   f.radius_m < r0 && f.radius_m > o.tangent.narrow_min_share * r0;
+  // A sapling's thin stem outlined inside the part its leaves or smear widened
+  // (MeasureOptions::sapling_outline_max_dbh_cm).
+  const bool sapling_outline = two_sided && !bark_lines_up &&
+                               2 * f.radius_m < 0.01 * o.sapling_outline_max_dbh_cm &&
+                               f.radius_m < r0 && f.radius_m > o.tangent.narrow_min_share * r0;
   // A fit from one side that came out wider than the points rests on nothing that can check it
   // (an occluder's edge, the slack of a one-sided circle); a confirmed stem keeps the cloud's
   // width.
@@ -102,9 +107,10 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   // any other wider fit (a trunk just behind the stem can widen loose silhouettes).
   const bool smeared_width =
       f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0 && (f.radius_m <= r0 || two_sided);
-  const bool plausible = f.ok && confirmed &&
-                         (s.depth_smeared ? smeared_width || narrower_two_sided
-                                          : near_cloud || wider_two_sided || narrower_two_sided);
+  const bool plausible =
+      f.ok && confirmed &&
+      (sapling_outline || (s.depth_smeared ? smeared_width || narrower_two_sided
+                                           : near_cloud || wider_two_sided || narrower_two_sided));
   if (plausible) return SilhouetteVerdict::kUse;
   if (f.ok && confirmed && s.depth_smeared) return SilhouetteVerdict::kKeepCloud;
   // A smeared or weakly supported part is a stem only if silhouettes confirm it; when

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "stemmap/core/check_message.h"
 #include "stemmap/stems/silhouette.h"
 #include "stemmap/stems/test_scene.h"
 
@@ -979,6 +980,57 @@ TEST(JudgeSilhouetteFit, ANarrowerFitWhoseBarkLinesUpNeedsFewerTwoSidedViews) {
       }
     }
   }
+}
+
+// A sapling 4-6 cm thick whose leaves or smeared points make a part 10-16 cm wide, its outline
+// seen on both sides in a few views (leaves cover it in the rest): the fit places it at its own
+// width, under sapling_outline_max_dbh_cm, where the bark does not line up on it; a circle as
+// narrow inside a stem lies on the stem's bark, and a fit at a stem's width is judged as before.
+// Swept over the part's width, the fit's, the two-sided views, the scatter and the bark.
+TEST(JudgeSilhouetteFit, AThinTwoSidedOutlineInsideAWiderPartIsASapling) {
+  const MeasureOptions o;
+  for (const double part_cm : {10.0, 12.0, 16.0}) {
+    for (const double fit_cm : {4.0, 5.0, 6.5, 7.5}) {
+      for (const int two_sided : {2, 3, 5, 10}) {
+        for (const double rms_px : {0.2, 1.0, 2.0}) {
+          for (const bool bark : {false, true}) {
+            for (const bool smeared : {false, true}) {
+              Case c;
+              c.stem.dbh_slice_m = 0.01 * part_cm;
+              c.stem.depth_smeared = smeared;
+              c.fit.radius_m = 0.005 * fit_cm;
+              c.fit.tried_views = c.fit.views = 22;
+              c.fit.two_sided_views = two_sided;
+              c.fit.rms_m = rms_px * c.px_m;
+              const bool within = fit_cm > 100 * o.tangent.narrow_min_share * c.stem.dbh_slice_m;
+              const bool sapling = fit_cm < o.sapling_outline_max_dbh_cm && within && !bark &&
+                                   two_sided >= 3 && rms_px < o.tight_fit_rms_px;
+              const SilhouetteVerdict verdict = JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, bark);
+              SCOPED_TRACE(::testing::Message()
+                           << "part " << part_cm << " cm, fit " << fit_cm << " cm, two-sided in "
+                           << two_sided << " of 22, " << rms_px << " px, bark " << bark
+                           << (smeared ? ", smeared" : ""));
+              MeasureOptions off = o;
+              off.sapling_outline_max_dbh_cm = 0;
+              if (sapling) {
+                EXPECT_EQ(verdict, SilhouetteVerdict::kUse);
+              } else {
+                EXPECT_EQ(verdict, JudgeSilhouetteFit(off, c.stem, c.fit, c.px_m, bark));
+              }
+              if (sapling && !smeared && (part_cm - fit_cm) > 0.35 * part_cm + 2.0) {
+                // Before: the part's width stood (a thin fit in few views outranks nothing).
+                EXPECT_NE(JudgeSilhouetteFit(off, c.stem, c.fit, c.px_m, bark),
+                          SilhouetteVerdict::kUse);
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+  MeasureOptions o2;
+  o2.sapling_outline_max_dbh_cm = -1;
+  EXPECT_EQ(CheckMessage(o2), "the widest sapling's outline must lie in [0, 30] cm");
 }
 
 TEST(JudgeSilhouetteFit, RequiringSilhouettesDropsWhatNoneConfirms) {
