@@ -705,7 +705,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
     const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
     const bool sharp = HasSharpSilhouettes(f, o.larger_cloud_only_max_rms_px, px_m);
-    if (f.ok && LeafyOutline(o, f, px_m)) {
+    // Straight behind a listed stem, one side's silhouettes run along that stem's outline, jagged
+    // by its own; what decides there is whether the stem shows past it (below).
+    if (f.ok && !behind_nearer && LeafyOutline(o, f, px_m)) {
       spdlog::debug(
           "stems: ({:.2f}, {:.2f}) r {:.3f} dropped: {:.0f} % of its silhouettes are jagged, "
           "leaves",

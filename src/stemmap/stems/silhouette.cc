@@ -56,6 +56,20 @@ bool BrightnessEdge(const TangentOptions& o, const std::vector<double>& row, int
 
 }  // namespace
 
+std::pair<int, double> NearDepthSteps(const TangentOptions& o, double baseline_px, double dist_m) {
+  // A point d out moves by b f / d against the neighbour (b f = baseline_px), so a depth step of
+  // e moves it by b f e / d^2, and what lies 1.5 d out moves by b f / (3 d) against the stem.
+  // Steps toward it leave it moving by at least twice background_parallax_px.
+  if (o.near_depth_steps <= 0 || dist_m <= 0) return {0, 0.0};
+  const double background_px = baseline_px / (3 * dist_m);
+  const int steps =
+      std::min(o.near_depth_steps,
+               static_cast<int>(std::floor((background_px - 2 * o.background_parallax_px) /
+                                           o.near_depth_step_px)));
+  if (steps <= 0) return {0, 0.0};
+  return {steps, o.near_depth_step_px * dist_m * dist_m / baseline_px};
+}
+
 // Silhouette columns of the stem in keyframe k at image row y0, from the disagreement between
 // k and its neighbours warped through the stem's front plane.
 Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eigen::Vector2d& c0,
@@ -116,6 +130,7 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
                  : Eigen::Vector3d(ck + t * ray);
     }
   }
+  std::vector<int> neighbours;
   for (int side : {-1, 1}) {
     int j = k + side;
     while (j + side >= 0 && j + side < static_cast<int>(kfs.size()) &&
@@ -123,23 +138,46 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
            (kfs[j].world_from_cam.translation - ck).head<2>().norm() < baseline_m) {
       j += side;
     }
-    if (j < 0 || j >= static_cast<int>(kfs.size()) || (*v.gray)[j].empty()) continue;
-    const Rigid3d j_from_world = kfs[j].world_from_cam.Inverse();
-    const Eigen::Matrix3d j_from_world_rotation = j_from_world.rotation.toRotationMatrix();
-    const cv::Mat& img_j = (*v.gray)[j];
-    for (int y = y_begin; y <= y_end; ++y) {
-      for (int x = x_begin; x <= x_end; ++x) {
-        const Eigen::Vector3d& p_w =
-            on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)];
-        if (std::isnan(p_w.x())) continue;
-        const Eigen::Vector3d p_j = j_from_world_rotation * p_w + j_from_world.translation;
-        if (p_j.z() <= 0.1) continue;
-        const Eigen::Vector2d px = cam.ImageFromCam(p_j);
-        const float vj = BilinearGray(img_j, px.x(), px.y());
-        if (vj < 0) continue;
-        diff[x - x_begin] += std::abs(img.at<uchar>(y, x) - vj);
-        ++count[x - x_begin];
+    if (j >= 0 && j < static_cast<int>(kfs.size()) && !(*v.gray)[j].empty())
+      neighbours.push_back(j);
+  }
+  // Depth steps (NearDepthSteps) for the nearer neighbour: each column keeps the depth at which
+  // both neighbours agree with it best. Both at once, as one point's depth: moved in depth, what
+  // lies behind shifts opposite ways in the two, and seldom lines up in both.
+  double apart_m = 1e9;
+  for (int j : neighbours) {
+    apart_m = std::min(apart_m, (kfs[j].world_from_cam.translation - ck).head<2>().norm());
+  }
+  const auto [steps, step_m] = neighbours.empty()
+                                   ? std::pair<int, double>{0, 0.0}
+                                   : NearDepthSteps(o, apart_m * cam.fx, std::max(0.1, dist - r0));
+  std::vector<double> d(width);
+  std::vector<int> n(width);
+  for (int step = -steps; step <= steps; ++step) {
+    std::ranges::fill(d, 0.0);
+    std::ranges::fill(n, 0);
+    for (int j : neighbours) {
+      const Rigid3d j_from_world = kfs[j].world_from_cam.Inverse();
+      const Eigen::Matrix3d j_from_world_rotation = j_from_world.rotation.toRotationMatrix();
+      const cv::Mat& img_j = (*v.gray)[j];
+      for (int y = y_begin; y <= y_end; ++y) {
+        for (int x = x_begin; x <= x_end; ++x) {
+          Eigen::Vector3d p_w = on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)];
+          if (std::isnan(p_w.x())) continue;
+          if (step != 0) p_w += step * step_m * (p_w - ck).normalized();
+          const Eigen::Vector3d p_j = j_from_world_rotation * p_w + j_from_world.translation;
+          if (p_j.z() <= 0.1) continue;
+          const Eigen::Vector2d px = cam.ImageFromCam(p_j);
+          const float vj = BilinearGray(img_j, px.x(), px.y());
+          if (vj < 0) continue;
+          d[x - x_begin] += std::abs(img.at<uchar>(y, x) - vj);
+          ++n[x - x_begin];
+        }
       }
+    }
+    for (int i = 0; i < width; ++i) {
+      const bool better = n[i] > 0 && (count[i] == 0 || d[i] * count[i] < diff[i] * n[i]);
+      if (step == -steps || better) diff[i] = d[i], count[i] = n[i];
     }
   }
   // Columns no neighbour shows (beyond their pictures, at this one's border) end the window; a

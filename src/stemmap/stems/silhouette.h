@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <optional>
+#include <utility>
 #include <vector>
 
 #include "stemmap/camera/camera.h"
@@ -39,6 +40,11 @@ struct EdgeWindow {
   std::array<double, 2> outer_end = {-1e9, 1e9};
   std::array<bool, 2> hidden = {false, false};
 };
+
+// The depth steps each side of the stem's surface that a view compares a neighbour through
+// (TangentOptions::near_depth_steps), and each step's length along the ray (m), for a neighbour
+// baseline_px = baseline (m) times the focal length (px) away and the stem's face dist_m out.
+std::pair<int, double> NearDepthSteps(const TangentOptions& o, double baseline_px, double dist_m);
 
 // Silhouette columns of the stem (c0, r0) in keyframe k at image row y0, from the disagreement
 // between k and its neighbours warped through the stem's surface.

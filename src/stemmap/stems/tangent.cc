@@ -20,6 +20,9 @@ void TangentOptions::Check() const {
   if (!(background_parallax_px > 0 && max_neighbour_offset >= 1)) {
     throw InputError("the silhouettes' neighbour views need a positive parallax and offset");
   }
+  if (!(near_depth_steps >= 0 && near_depth_step_px > 0)) {
+    throw InputError("the near stems' depth steps must not be negative, and each step positive");
+  }
   if (!(rows_half >= 1 && band_half_height_m > 0 && band_half_height_m < 1 &&
         max_bands_each_side >= 1)) {
     throw InputError(

@@ -29,6 +29,15 @@ struct TangentOptions {
   // what lies 1.5 times as far as the stem moves this much against it, at most this many away.
   double background_parallax_px = 3.0;
   int max_neighbour_offset = 8;
+  // Seen near, even the nearest neighbour moves the stem's surface by several pixels per
+  // centimetre of depth, and a circle a little off misaligns its bark; so each column is also
+  // compared through depths up to this many steps in front of and behind the circle, each step
+  // moving the surface this many pixels, and keeps the depth it agrees best at. Only as far as
+  // keeps what lies 1.5 times as far moving by twice background_parallax_px (so steps come only
+  // where the neighbour's baseline exceeds what that parallax needs: within about a metre of the
+  // camera). 0 steps: the circle's depth alone.
+  int near_depth_steps = 4;
+  double near_depth_step_px = 3.0;
   int rows_half = 4;  // rows averaged per band
   // Bands of rows within this height of breast height; each silhouette is a line through them.
   double band_half_height_m = 0.35;
@@ -164,15 +173,15 @@ struct TangentOptions {
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
-    TangentOptions, background_parallax_px, max_neighbour_offset, rows_half, band_half_height_m,
-    max_bands_each_side, search_px, search_share, min_contrast, min_brightness_contrast, huber_m,
-    prior_share_of_distance, min_rays, max_sideways_m, max_move_m, max_move_prior_sigmas,
-    occluder_min_gap_m, refits, wide_start_scales, recheck_wider_scale, recheck_min_gain,
-    recheck_rms_slack_px, narrow_start_scales, narrow_max_rms_px, narrow_min_share,
-    on_bark_max_rms_px, recheck_rim, rim_min_share, tighter_rms_share, sideways_start_shifts,
-    pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share, settle_few_views,
-    settle_min_change_share, min_views_each_side, face_sigma_m, face_start_growth,
-    refine_on_brightness, blur_sigma_px)
+    TangentOptions, background_parallax_px, max_neighbour_offset, near_depth_steps,
+    near_depth_step_px, rows_half, band_half_height_m, max_bands_each_side, search_px, search_share,
+    min_contrast, min_brightness_contrast, huber_m, prior_share_of_distance, min_rays,
+    max_sideways_m, max_move_m, max_move_prior_sigmas, occluder_min_gap_m, refits,
+    wide_start_scales, recheck_wider_scale, recheck_min_gain, recheck_rms_slack_px,
+    narrow_start_scales, narrow_max_rms_px, narrow_min_share, on_bark_max_rms_px, recheck_rim,
+    rim_min_share, tighter_rms_share, sideways_start_shifts, pooled_min_extra_rays,
+    few_views_min_two_sided, few_views_min_share, settle_few_views, settle_min_change_share,
+    min_views_each_side, face_sigma_m, face_start_growth, refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images

@@ -320,11 +320,64 @@ TEST(Tangent, ANearStemSeenLargeGivesSilhouettesInEveryViewThatTriesIt) {
       SCOPED_TRACE(::testing::Message() << distance << " m, start r " << start);
       const TangentFit fit = FitTangentRays(TangentOptions(), views, centre, start, 1.37);
       ASSERT_TRUE(fit.ok);
-      // Before, 7-14 of the 13-18 views tried gave a silhouette.
-      EXPECT_EQ(fit.views, fit.tried_views);
-      // Up to 2.3 cm narrow here (3.9 cm before): which circle the rounds settle on still
-      // depends on the start this near.
-      EXPECT_NEAR(fit.radius_m, radius, 0.025);
+      // Before, 7-14 of the 13-18 views tried gave a silhouette; the views counted are the
+      // chosen fit's, and two of one start's may drop out in its rounds.
+      EXPECT_GE(fit.views, fit.tried_views - 2);
+      // Within 0.9 cm of DBH here (4.6 cm narrow before ANearStemsFitDoesNotHangOnItsStart's
+      // depth steps, 7.8 cm before the search stopped at the picture's borders).
+      EXPECT_NEAR(fit.radius_m, radius, 0.006);
+    }
+  }
+}
+
+// Depth steps come only where the neighbour's baseline exceeds what the background's parallax
+// needs (a stem's face within about a metre of the camera), and never so far that what lies 1.5
+// times as far lines up: it still moves by twice background_parallax_px at the last step.
+TEST(Tangent, NearDepthStepsKeepTheBackgroundMoving) {
+  const TangentOptions o;
+  const double baseline_px = 0.035 * 724;  // the keyframes' spacing, the working image's focal
+  EXPECT_EQ(NearDepthSteps(o, baseline_px, 3.0).first, 0);
+  EXPECT_EQ(NearDepthSteps(o, baseline_px, 1.0).first, 0);
+  for (const double face_m : {0.3, 0.5, 0.7, 0.9}) {
+    SCOPED_TRACE(::testing::Message() << "face " << face_m << " m out");
+    const auto [steps, step_m] = NearDepthSteps(o, baseline_px, face_m);
+    ASSERT_GT(steps, 0);
+    EXPECT_LE(steps, o.near_depth_steps);
+    // Each step moves the face by near_depth_step_px.
+    EXPECT_NEAR(baseline_px * step_m / (face_m * face_m), o.near_depth_step_px, 1e-9);
+    const double background_px = baseline_px / (3 * face_m);
+    EXPECT_GE(background_px - steps * o.near_depth_step_px, 2 * o.background_parallax_px);
+  }
+  TangentOptions off = o;
+  off.near_depth_steps = 0;
+  EXPECT_EQ(NearDepthSteps(off, baseline_px, 0.5).first, 0);
+}
+
+// Seen within a metre, even the nearest keyframe moves a stem's surface by several pixels per
+// centimetre of depth: a start a little off misaligned the bark between its outline and the
+// stem's, that bark's edges held the circle there, and the next round closed further in. Each
+// column is now compared through a few depths about the circle (TangentOptions::
+// near_depth_steps). Swept over the bark, the stem's width and distance, and starts 15 % off.
+TEST(Tangent, ANearStemsFitDoesNotHangOnItsStart) {
+  const PinholeCamera camera = PinholeCamera::FromHfov(960, 540, 67.0);
+  for (const Texture texture : {Texture::kLimbShaded, Texture::kRegular}) {
+    for (const double radius : {0.08, 0.166}) {
+      for (const double distance : {1.7, 2.0}) {
+        const Eigen::Vector2d centre(distance, 0.2);
+        const RenderedStem scene =
+            RenderStems({{centre.x(), centre.y(), radius}}, true, false, texture, camera);
+        const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+        for (const double start : {0.85 * radius, 1.15 * radius}) {
+          SCOPED_TRACE(::testing::Message()
+                       << "texture " << static_cast<int>(texture) << ", r " << radius << " at "
+                       << distance << " m, start " << start);
+          const TangentFit fit = FitTangentRays(TangentOptions(), views, centre, start, 1.37);
+          ASSERT_TRUE(fit.ok);
+          // Within 1.1 cm of DBH here; compared through the circle alone, 4 of these 16 fits
+          // read 7-21 cm narrow (the 33-cm stem 1.7 m out from either start) and three 1.8-2.4 cm.
+          EXPECT_NEAR(fit.radius_m, radius, 0.008);
+        }
+      }
     }
   }
 }
