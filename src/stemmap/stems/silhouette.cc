@@ -153,6 +153,9 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
                                    : NearDepthSteps(o, apart_m * cam.fx, std::max(0.1, dist - r0));
   std::vector<double> d(width);
   std::vector<int> n(width);
+  // With depth steps, every other row: the steps cost their number of warps, and a near stem's
+  // bands hold rows to spare.
+  const int row_step = steps > 0 ? 2 : 1;
   for (int step = -steps; step <= steps; ++step) {
     std::ranges::fill(d, 0.0);
     std::ranges::fill(n, 0);
@@ -160,7 +163,7 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
       const Rigid3d j_from_world = kfs[j].world_from_cam.Inverse();
       const Eigen::Matrix3d j_from_world_rotation = j_from_world.rotation.toRotationMatrix();
       const cv::Mat& img_j = (*v.gray)[j];
-      for (int y = y_begin; y <= y_end; ++y) {
+      for (int y = y_begin; y <= y_end; y += row_step) {
         for (int x = x_begin; x <= x_end; ++x) {
           Eigen::Vector3d p_w = on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)];
           if (std::isnan(p_w.x())) continue;
