@@ -508,8 +508,10 @@ double JaggedSilhouetteShare(const MeasureOptions& o, const TangentFit& fit, dou
   return fit.JaggedShare(std::max(o.leafy_edge_scatter_m, o.leafy_edge_scatter_px * px_m));
 }
 
-bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m) {
-  return o.leafy_edge_share > 0 && JaggedSilhouetteShare(o, fit, px_m) >= o.leafy_edge_share;
+bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m,
+                  bool straight_behind_nearer) {
+  return o.leafy_edge_share > 0 && !straight_behind_nearer &&
+         JaggedSilhouetteShare(o, fit, px_m) >= o.leafy_edge_share;
 }
 
 bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth& cloud_bark) {
@@ -705,9 +707,8 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
     const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
     const bool sharp = HasSharpSilhouettes(f, o.larger_cloud_only_max_rms_px, px_m);
-    // Straight behind a listed stem, one side's silhouettes run along that stem's outline, jagged
-    // by its own; what decides there is whether the stem shows past it (below).
-    if (f.ok && !behind_nearer && LeafyOutline(o, f, px_m)) {
+    // (Straight behind a listed stem, whether it shows past that stem decides, below.)
+    if (f.ok && LeafyOutline(o, f, px_m, behind_nearer)) {
       spdlog::debug(
           "stems: ({:.2f}, {:.2f}) r {:.3f} dropped: {:.0f} % of its silhouettes are jagged, "
           "leaves",

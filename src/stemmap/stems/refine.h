@@ -33,9 +33,11 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& stem,
 // The share of a fit's silhouettes whose bands scatter about their lines by more than
 // MeasureOptions::leafy_edge_scatter_m and leafy_edge_scatter_px (px_m: metres a pixel spans at
 // the stem); whether that share makes it a leaf clump's jagged outline, not a trunk's straight
-// one (leafy_edge_share).
+// one (leafy_edge_share). Not for a fit straight behind a listed stem: one side's silhouettes
+// run along that stem's outline and scatter with it, and whether the stem shows past it decides.
 double JaggedSilhouetteShare(const MeasureOptions& o, const TangentFit& fit, double px_m);
-bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m);
+bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m,
+                  bool straight_behind_nearer = false);
 
 // Whether a part whose silhouette fit failed is a stem all the same, kept on its cloud: its
 // silhouettes were found on both sides in three views at least and a quarter of the views tried,

@@ -816,7 +816,8 @@ TEST(ResolvePart, AFitNearThePartsWidthKeepsThePartWithoutTryingItsCores) {
 }
 
 // A silhouette is jagged where its bands stray from its line by more than both a centimetre and
-// 1.2 px at the stem; two thirds of a fit's silhouettes jagged make it leaves.
+// 1.2 px at the stem; two thirds of a fit's silhouettes jagged make it leaves, except straight
+// behind a listed stem.
 TEST(LeafyOutline, TwoThirdsOfTheSilhouettesJaggedAreLeaves) {
   const MeasureOptions o;
   auto fit_with = [](std::vector<double> scatter_m) {
@@ -839,6 +840,9 @@ TEST(LeafyOutline, TwoThirdsOfTheSilhouettesJaggedAreLeaves) {
   EXPECT_TRUE(LeafyOutline(o, crown, px_m));
   // Far out, a centimetre is under the edges' noise of 1.2 px: not jagged.
   EXPECT_FALSE(LeafyOutline(o, crown, /*px_m=*/0.04));
+  // Straight behind a listed stem, silhouettes along its outline scatter with it: not leaves
+  // for that (the stem must show past the nearer one instead).
+  EXPECT_FALSE(LeafyOutline(o, crown, px_m, /*straight_behind_nearer=*/true));
   // Off; and no silhouettes, nothing jagged.
   MeasureOptions off;
   off.leafy_edge_share = 0;
