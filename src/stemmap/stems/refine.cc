@@ -81,14 +81,13 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   // tangent across views. Where the bark lines up on the fit, a share of the views will do: a
   // circle inside a stem, or around two things, does not warp one view's bark onto the next.
   const double two_sided_share = bark_lines_up ? o.narrower_on_bark_two_sided_share : 0.5;
-  const bool narrower_two_sided = two_sided &&
-                                  f.two_sided_views >= two_sided_share * f.tried_views &&
-                                  f.radius_m < r0 && f.radius_m > o.tangent.narrow_min_share * r0;
+  const bool inside_part = f.radius_m < r0 && f.radius_m > o.tangent.narrow_min_share * r0;
+  const bool narrower_two_sided =
+      two_sided && f.two_sided_views >= two_sided_share * f.tried_views && inside_part;
   // A sapling's thin stem outlined inside the part its leaves or smear widened
   // (MeasureOptions::sapling_outline_max_dbh_cm).
   const bool sapling_outline = two_sided && !bark_lines_up &&
-                               2 * f.radius_m < 0.01 * o.sapling_outline_max_dbh_cm &&
-                               f.radius_m < r0 && f.radius_m > o.tangent.narrow_min_share * r0;
+                               2 * f.radius_m < 0.01 * o.sapling_outline_max_dbh_cm && inside_part;
   // A fit from one side that came out wider than the points rests on nothing that can check it
   // (an occluder's edge, the slack of a one-sided circle); a confirmed stem keeps the cloud's
   // width.
