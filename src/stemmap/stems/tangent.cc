@@ -778,10 +778,37 @@ bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const Tang
 namespace {
 
 // The fit of the start FitTangentRays chooses; every start's fit is appended to `tried`.
+// The narrower starts (none just beside a nearer stem) and the starts moved sideways, each fit
+// appended to `tried` and handed to `consider` with whether its start was moved sideways.
+void TryNarrowAndSidewaysStarts(const TangentOptions& o, const TangentViews& v,
+                                const Eigen::Vector2d& centre0, double radius0, double breast_z,
+                                std::vector<TangentFit>* tried,
+                                const std::function<void(const TangentFit&, bool)>& consider) {
+  // Seen from the plot centre just beside a nearer stem, the cloud saw part of the stem at most:
+  // its width is a lower bound, and a narrower start has nothing to correct (it settles on bark
+  // inside the stem, under half its width).
+  const bool beside_nearer =
+      v.occluders && BesideNearerStem(*v.occluders, centre0, radius0, o.occluder_min_gap_m);
+  for (double scale : beside_nearer ? std::vector<double>{} : o.narrow_start_scales) {
+    tried->push_back(FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z));
+    if (consider) consider(tried->back(), false);
+  }
+  const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
+  for (double shift : o.sideways_start_shifts) {
+    for (double side : {-1.0, 1.0}) {
+      const Eigen::Vector2d moved = centre0 + side * shift * radius0 * across;
+      tried->push_back(FitTangentRaysFrom(o, v, moved, radius0, radius0, breast_z));
+      if (consider) consider(tried->back(), true);
+    }
+  }
+}
+
+// `others_tried`: set where the narrower and sideways starts were tried (not where the given
+// radius's own fit was two-sided in most views).
 TangentFit ChooseAmongStarts(const TangentOptions& o, const TangentViews& v,
                              const Eigen::Vector2d& centre0, double radius0, double breast_z,
                              const std::function<bool(const TangentFit&)>& accept,
-                             std::vector<TangentFit>* tried_out) {
+                             std::vector<TangentFit>* tried_out, bool* others_tried) {
   std::vector<TangentFit>& tried = *tried_out;
   TangentFit fit = FitTangentRaysFrom(o, v, centre0, radius0, radius0, breast_z);
   tried.push_back(fit);
@@ -814,25 +841,15 @@ TangentFit ChooseAmongStarts(const TangentOptions& o, const TangentViews& v,
                          other.radius_m > o.narrow_min_share * radius0;
     if (trusted && (!fit.ok || 2 * other.two_sided_views >= 3 * fit.two_sided_views)) fit = other;
   };
-  // Seen from the plot centre just beside a nearer stem, the cloud saw part of the stem at most:
-  // its width is a lower bound, and a narrower start has nothing to correct (it settles on bark
-  // inside the stem, under half its width).
-  const bool beside_nearer =
-      v.occluders && BesideNearerStem(*v.occluders, centre0, radius0, o.occluder_min_gap_m);
-  for (double scale : beside_nearer ? std::vector<double>{} : o.narrow_start_scales) {
-    tried.push_back(FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z));
-    take_if_clearly_better(tried.back());
-  }
+  // Away from where the cloud put it, only a stem seen whole in most views stands.
+  TryNarrowAndSidewaysStarts(o, v, centre0, radius0, breast_z, &tried,
+                             [&](const TangentFit& other, bool sideways) {
+                               if (!sideways || 2 * other.two_sided_views >= other.tried_views) {
+                                 take_if_clearly_better(other);
+                               }
+                             });
+  *others_tried = true;
   const Eigen::Vector2d across = Eigen::Vector2d(-centre0.y(), centre0.x()).normalized();
-  for (double shift : o.sideways_start_shifts) {
-    for (double side : {-1.0, 1.0}) {
-      const Eigen::Vector2d moved = centre0 + side * shift * radius0 * across;
-      tried.push_back(FitTangentRaysFrom(o, v, moved, radius0, radius0, breast_z));
-      // Away from where the cloud put it, only a stem seen whole in most views stands.
-      const TangentFit& other = tried.back();
-      if (2 * other.two_sided_views >= other.tried_views) take_if_clearly_better(other);
-    }
-  }
   for (double scale : o.wide_start_scales) {
     tried.push_back(FitTangentRaysFrom(o, v, centre0, radius0, scale * radius0, breast_z));
     const TangentFit& other = tried.back();
@@ -980,8 +997,10 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
                           const std::function<BarkVerdict(const TangentFit&)>& bark,
                           const std::function<BarkVerdict(const TangentFit&, double)>& rim) {
   std::vector<TangentFit> tried;
+  bool others_tried = false;
   TangentFit fit = SettleChosenFit(
-      o, v, ChooseAmongStarts(o, v, centre0, radius0, breast_z, accept, &tried), radius0, breast_z);
+      o, v, ChooseAmongStarts(o, v, centre0, radius0, breast_z, accept, &tried, &others_tried),
+      radius0, breast_z);
   // A fit can close inside the stem: a circle too narrow misaligns the bark beyond it, whose
   // edges then hold it narrow, and shading across a round stem makes edges at a fixed share of
   // its apparent half-width in every view, tangent to a smaller concentric circle. Tangency
@@ -1004,6 +1023,13 @@ TangentFit FitTangentRays(const TangentOptions& o, const TangentViews& v,
   if (!fit.ok || !bark || bark(fit) != BarkVerdict::kLinesUpNowhere) return fit;
   const double px_m = centre0.norm() / v.camera->fx;
   std::optional<TangentFit> on_bark = FitTheBarkLinesUpOn(o, tried, fit, radius0, px_m, bark);
+  // A circle around a thin stem and a thicker one behind it just beside its bearing shows both
+  // sides in most views from the cloud's own start, where the cloud merged the two, and then no
+  // narrower or sideways start was tried: try them now.
+  if (!on_bark && !others_tried) {
+    TryNarrowAndSidewaysStarts(o, v, centre0, radius0, breast_z, &tried, {});
+    on_bark = FitTheBarkLinesUpOn(o, tried, fit, radius0, px_m, bark);
+  }
   // A stem just beside a nearer one on its bearing: a start moved sideways that took the nearer
   // stem's edge for its own where it hides the stem settles on a looser circle between them, which
   // shows both sides in more views than the stem's own, and the bark lines up nowhere on it. The

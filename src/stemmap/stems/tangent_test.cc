@@ -765,6 +765,41 @@ TEST(Tangent, AThinStemInFrontOfAThickerOneKeepsItsOwnOutlineWhereItsBarkLinesUp
   }
 }
 
+// The cloud merged a thin stem with a thicker one 1-2.3 m behind it, 2-4 degrees beside its
+// bearing, and put the part between them at twice the thin stem's width. From that start a circle
+// around the thin stem's outline and part of the thicker one's shows both sides in most views
+// (before, 9 of these 12 fits: 9.5-22 cm radii for the thin stem's 7.7), so no narrower or sideways
+// start was tried; the bark lines up nowhere on it, and one of those starts finds the thin stem.
+TEST(Tangent, AThinStemTheCloudMergedWithAThickerOneBehindItGetsItsOwnOutline) {
+  const PinholeCamera camera = PinholeCamera::FromHfov(960, 540, 67.0);
+  const Eigen::Vector3d thin(8.0, 0.0, 0.077);
+  for (const double beside_deg : {2.0, 3.0, 4.0}) {
+    for (const double behind_m : {1.0, 2.3}) {
+      const double bearing = -beside_deg * M_PI / 180, range = thin.x() + behind_m;
+      const Eigen::Vector3d thick(range * std::cos(bearing), range * std::sin(bearing), 0.112);
+      const RenderedStem scene =
+          RenderStems({thin, thick}, true, false, Texture::kIrregular, camera);
+      const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+      const TangentOptions o;
+      const BarkDepthOptions bark;
+      const auto lines_up = [&](const TangentFit& f) {
+        return JudgeBark(bark, MeasureBarkDepth(bark, o, views, f.centre, f.radius_m, 1.3));
+      };
+      for (const int share_pct : {50, 70}) {
+        SCOPED_TRACE(::testing::Message() << beside_deg << " deg beside, " << behind_m
+                                          << " m behind, start " << share_pct << " % of the way");
+        const double start_bearing = 0.01 * share_pct * bearing;
+        const Eigen::Vector2d start(7.95 * std::cos(start_bearing), 7.95 * std::sin(start_bearing));
+        const TangentFit fit = FitTangentRays(o, views, start, 2 * thin.z(), 1.3, {}, lines_up);
+        ASSERT_TRUE(fit.ok);
+        // A pixel is 11 mm at the stem.
+        EXPECT_NEAR(fit.radius_m, thin.z(), 0.007);
+        EXPECT_LT(std::abs(fit.centre.y() - thin.y()), 0.012);
+      }
+    }
+  }
+}
+
 // Rays tangent to the circle (centre, r) from cameras on the arm, one per side and view
 // (side 0: the silhouette at the stem's left seen from the camera).
 std::vector<TangentFit::Ray> TangentRays(const Eigen::Vector2d& centre, double r, int first,
