@@ -26,10 +26,11 @@ struct MeasureOptions {
   // the stem, and leaves hide its outline in most views. Where the silhouettes outline a stem
   // thinner than this (cm) inside such a part (narrower than it, down to
   // TangentOptions::narrow_min_share of it), both sides in three views on one circle to about a
-  // pixel (tight_fit_rms_px), and the bark does not line up on that circle (a circle inside a
-  // stem's outline lies on its bark; a stem a few pixels wide carries none from view to view),
-  // the fit places the sapling at its own width (left out under min_dbh_cm); otherwise the
-  // part's width would stand for it, flagged no_silhouette. 0: off.
+  // pixel (tight_fit_rms_px), the fit places the sapling at its own width (left out under
+  // min_dbh_cm); otherwise the part's width would stand for it, flagged no_silhouette. Whether
+  // the bark lines up on that circle does not tell: on 26 simulated plots the 39 such outlines
+  // were all of saplings (36), the bark lining up on 22 of them, and none lay inside a stem
+  // (whose edges inside it lie at 54-80 % of its width). 0: off.
   double sapling_outline_max_dbh_cm = 7.0;
   // The terrain under the plot, out to the search radius and 2 m more.
   GroundOptions ground;

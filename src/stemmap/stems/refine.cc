@@ -86,8 +86,8 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
       two_sided && f.two_sided_views >= two_sided_share * f.tried_views && inside_part;
   // A sapling's thin stem outlined inside the part its leaves or smear widened
   // (MeasureOptions::sapling_outline_max_dbh_cm).
-  const bool sapling_outline = two_sided && !bark_lines_up &&
-                               2 * f.radius_m < 0.01 * o.sapling_outline_max_dbh_cm && inside_part;
+  const bool sapling_outline =
+      two_sided && 2 * f.radius_m < 0.01 * o.sapling_outline_max_dbh_cm && inside_part;
   // A fit from one side that came out wider than the points rests on nothing that can check it
   // (an occluder's edge, the slack of a one-sided circle); a confirmed stem keeps the cloud's
   // width.

@@ -1007,7 +1007,7 @@ TEST(JudgeSilhouetteFit, AThinTwoSidedOutlineInsideAWiderPartIsASapling) {
               c.fit.two_sided_views = two_sided;
               c.fit.rms_m = rms_px * c.px_m;
               const bool within = fit_cm > 100 * o.tangent.narrow_min_share * c.stem.dbh_slice_m;
-              const bool sapling = fit_cm < o.sapling_outline_max_dbh_cm && within && !bark &&
+              const bool sapling = fit_cm < o.sapling_outline_max_dbh_cm && within &&
                                    two_sided >= 3 && rms_px < o.tight_fit_rms_px;
               const SilhouetteVerdict verdict = JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, bark);
               SCOPED_TRACE(::testing::Message()
@@ -1021,7 +1021,9 @@ TEST(JudgeSilhouetteFit, AThinTwoSidedOutlineInsideAWiderPartIsASapling) {
               } else {
                 EXPECT_EQ(verdict, JudgeSilhouetteFit(off, c.stem, c.fit, c.px_m, bark));
               }
-              if (sapling && !smeared && (part_cm - fit_cm) > 0.35 * part_cm + 2.0) {
+              const double narrower_share = bark ? o.narrower_on_bark_two_sided_share : 0.5;
+              if (sapling && !smeared && two_sided < narrower_share * 22 &&
+                  (part_cm - fit_cm) > 0.35 * part_cm + 2.0) {
                 // Before: the part's width stood (a thin fit in few views outranks nothing).
                 EXPECT_NE(JudgeSilhouetteFit(off, c.stem, c.fit, c.px_m, bark),
                           SilhouetteVerdict::kUse);
