@@ -53,6 +53,9 @@ void MeasureOptions::Check() const {
     throw InputError(
         "the rms of a tight fit must be positive and no more than that of a loose one");
   }
+  if (!(min_judged_px_m >= 0 && min_judged_px_m <= 0.02)) {
+    throw InputError("the least a pixel counts as at a stem must lie in [0, 0.02] m");
+  }
   if (!(loose_wider_max_over_cloud >= 1)) {
     throw InputError("the width over the cloud's a loose wider fit may reach must be at least 1");
   }

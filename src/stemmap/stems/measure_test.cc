@@ -41,6 +41,9 @@ TEST(MeasureOptions, TheTightAndLooseFitSettingsAreChecked) {
   EXPECT_EQ(CheckMessage(o),
             "the rms of a tight fit must be positive and no more than that of a loose one");
   o = MeasureOptions();
+  o.min_judged_px_m = -0.001;
+  EXPECT_EQ(CheckMessage(o), "the least a pixel counts as at a stem must lie in [0, 0.02] m");
+  o = MeasureOptions();
   o.loose_wider_max_over_cloud = 0.95;
   EXPECT_EQ(CheckMessage(o),
             "the width over the cloud's a loose wider fit may reach must be at least 1");

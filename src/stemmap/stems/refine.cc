@@ -58,6 +58,10 @@ int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems) {
   return dropped;
 }
 
+double JudgedPixelM(const MeasureOptions& o, double distance_m, double fx_px) {
+  return std::max(distance_m / fx_px, o.min_judged_px_m);
+}
+
 SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, const TangentFit& f,
                                      double px_m, bool bark_lines_up) {
   // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
@@ -622,6 +626,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const bool asked =
         last_asked.ok && last_asked.centre == f.centre && last_asked.radius_m == f.radius_m;
     const double px_m = s.centre_xy.norm() / camera.fx;
+    const double judged_px_m = JudgedPixelM(o, s.centre_xy.norm(), camera.fx);
     // Behind a nearer stem, the views that show the sides where the cloud's circle predicts them
     // (SideViewsAt; none where the circle is wider than the nearer stem or its support weak).
     auto cloud_side_views = [&] {
@@ -639,7 +644,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const BarkDepth bark =
         CheckFitOnBark(bark_options, topt, views, breast_z, &f, asked ? &last_bark : nullptr);
     if (!f.ok && outline_may_outweigh_bark &&
-        OutlineOutweighsPlainBark(o, outline, bark, s.centre_xy, r0, px_m)) {
+        OutlineOutweighsPlainBark(o, outline, bark, s.centre_xy, r0, judged_px_m)) {
       spdlog::debug(
           "stems: ({:.2f}, {:.2f}) r {:.3f}: its bark correlates nowhere (ncc {:.2f}), its outline "
           "stands (two-sided in {} of {} views)",
@@ -670,8 +675,8 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
                   SideViewsClearOfNearerStems(topt, views, f, breast_z)};
     // Held on its face, the sides seen apart measure it: they bound its width from both sides
     // and the face its range, where the cloud saw a sliver of it (its width no check).
-    SilhouetteVerdict verdict =
-        on_face && f.ok ? SilhouetteVerdict::kUse : JudgeSilhouetteFit(o, s, f, px_m, bark.ok);
+    SilhouetteVerdict verdict = on_face && f.ok ? SilhouetteVerdict::kUse
+                                                : JudgeSilhouetteFit(o, s, f, judged_px_m, bark.ok);
     if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
       const BarkDepth cloud_bark =
           MeasureBarkDepth(bark_options, topt, views, s.centre_xy, r0, breast_z);
@@ -698,14 +703,15 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     // (SidesSeenApartPastNearer): the nearer stem hides one side from each end of the arm.
     // Elsewhere, a stem shows both sides in the same views, and sides only ever seen apart are
     // the edges of two things.
-    const bool seen_apart =
-        behind_nearer && SidesSeenApartPastNearer(topt, f, s.evidence.clear_side_views, px_m);
+    const bool seen_apart = behind_nearer && SidesSeenApartPastNearer(
+                                                 topt, f, s.evidence.clear_side_views, judged_px_m);
     s.evidence.sides_apart = seen_apart || on_face;
     const bool clean =
-        (f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * px_m) || seen_apart;
+        (f.two_sided_views >= std::max(3, f.tried_views / 4) && f.rms_m < 2 * judged_px_m) ||
+        seen_apart;
     const bool whole = clean && 2 * f.two_sided_views >= f.tried_views;
     const bool agrees = f.ok && std::abs(f.radius_m - r0) <= 0.2 * r0;
-    const bool sharp = HasSharpSilhouettes(f, o.larger_cloud_only_max_rms_px, px_m);
+    const bool sharp = HasSharpSilhouettes(f, o.larger_cloud_only_max_rms_px, judged_px_m);
     // (Straight behind a listed stem, whether it shows past that stem decides, below.)
     if (f.ok && LeafyOutline(o, f, px_m, behind_nearer)) {
       spdlog::debug(
@@ -716,7 +722,8 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
     }
     // (A fit held on its face stands on its own sides; once the bark vetoed it, it does not.)
-    if (behind_nearer && !(on_face && f.ok) && !StandsOnItsOwnSilhouettes(o.tangent, f, px_m)) {
+    if (behind_nearer && !(on_face && f.ok) &&
+        !StandsOnItsOwnSilhouettes(o.tangent, f, judged_px_m)) {
       const std::array<int, 2> side_views = cloud_side_views();
       if (ShowsSidesPastNearerStem(o, s, r0, kept, side_views)) {
         spdlog::debug(

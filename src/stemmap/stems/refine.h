@@ -24,8 +24,12 @@ enum class SilhouetteVerdict {
   kKeepCloud,  // implausible: the cloud's estimate stays, flagged no_silhouette
   kDrop,       // implausible for a part that needed confirming: not a stem
 };
-// `px_m` is one pixel's footprint at the stem's distance; `bark_lines_up`: the views warped
-// through the fitted circle line up on its bark (BarkDepth::ok).
+// Metres one pixel spans at a stem `distance_m` from the plot centre (fx_px: the pictures' focal
+// length), as the silhouettes' rms is judged: at least MeasureOptions::min_judged_px_m.
+double JudgedPixelM(const MeasureOptions& o, double distance_m, double fx_px);
+
+// `px_m` is one pixel's footprint at the stem's distance (JudgedPixelM); `bark_lines_up`: the
+// views warped through the fitted circle line up on its bark (BarkDepth::ok).
 SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& stem,
                                      const TangentFit& fit, double px_m,
                                      bool bark_lines_up = false);
