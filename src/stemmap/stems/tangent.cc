@@ -777,7 +777,6 @@ bool WiderRecheckWins(const TangentOptions& o, const TangentFit& fit, const Tang
 
 namespace {
 
-// The fit of the start FitTangentRays chooses; every start's fit is appended to `tried`.
 // The narrower starts (none just beside a nearer stem) and the starts moved sideways, each fit
 // appended to `tried` and handed to `consider` with whether its start was moved sideways.
 void TryNarrowAndSidewaysStarts(const TangentOptions& o, const TangentViews& v,
@@ -803,6 +802,7 @@ void TryNarrowAndSidewaysStarts(const TangentOptions& o, const TangentViews& v,
   }
 }
 
+// The fit of the start FitTangentRays chooses; every start's fit is appended to `tried`.
 // `others_tried`: set where the narrower and sideways starts were tried (not where the given
 // radius's own fit was two-sided in most views).
 TangentFit ChooseAmongStarts(const TangentOptions& o, const TangentViews& v,
