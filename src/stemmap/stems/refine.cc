@@ -107,9 +107,10 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   // A smeared part's width across the line of sight is rough, but not off by half: a fit beyond
   // half or twice it caught something else (a neighbour, one side of the stem), though the
   // silhouettes it found still confirm a stem. Wider than the points, it must be two-sided like
-  // any other wider fit (a trunk just behind the stem can widen loose silhouettes).
-  const bool smeared_width =
-      f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0 && (f.radius_m <= r0 || two_sided);
+  // any other wider fit (a trunk just behind the stem can widen loose silhouettes), unless it
+  // keeps near their width (near_cloud), as a fit on a part that is not smeared may.
+  const bool smeared_width = f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0 &&
+                             (f.radius_m <= r0 || two_sided || near_cloud);
   const bool plausible =
       f.ok && confirmed &&
       (sapling_outline || (s.depth_smeared ? smeared_width || narrower_two_sided
