@@ -11,7 +11,8 @@
 # bias, position RMSE and the camera-up error, the pooled figures per variant and, stem by stem
 # against the ideal camera, how far each variant moves the DBH of the stems both list.
 # Usage: bench/phone.sh [BUILD_DIR] [DATA_DIR]
-#   SEEDS or FRESH=N and KINDS as in bench/plots.sh; SIZE (default 960x540) and FPS (default 15).
+#   SEEDS or FRESH=N and KINDS as in bench/plots.sh; SIZE (default 960x540) and FPS (default 15);
+#   VARIANTS: the cameras to run, by name (default all; e.g. "ideal main" for more plots).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 source "$here/common.sh"
@@ -38,6 +39,7 @@ for kind in $kinds; do
   for seed in $seeds; do
     for v in "${variants[@]}"; do
       IFS=: read -r name sim_flags proc_flags <<< "$v"
+      case " ${VARIANTS:-$name} " in *" $name "*) ;; *) continue ;; esac
       dir="$data/$kind-$seed/$name"
       mkdir -p "$dir"
       if [ ! -f "$dir/video.mp4" ]; then
