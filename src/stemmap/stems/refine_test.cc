@@ -1121,8 +1121,8 @@ TEST(JudgeSilhouetteFit, ASmearedStemsFitMustStayWithinHalfToTwiceItsWidth) {
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
   c.fit.rms_m = 2 * c.px_m;  // but not from silhouettes that disagree by two pixels
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kKeepCloud);
-  // Unless they keep near the points' width: 5 % wider, as a part not smeared may (before, the
-  // points' width stood, and a 33.1-cm stem whose core was a 9.9-cm piece read 20.2 cm).
+  // Unless they keep near the points' width: 5 % wider, as a part not smeared may (else the
+  // points' width stands, or a core of the part a third as wide, and the stem reads far thin).
   c.fit.radius_m = 0.157;
   EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m), SilhouetteVerdict::kUse);
   c.stem.depth_smeared = false;
