@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iterator>
+#include <opencv2/imgproc.hpp>
 #include <utility>
 
 #include "stemmap/core/error.h"
@@ -17,6 +18,7 @@ void MeasureOptions::Check() const {
   stems.Check();
   tangent.Check();
   bark_depth.Check();
+  votes.Check();
   if (min_dbh_cm < 0) throw InputError("--min-dbh must not be negative");
   if (!(sapling_outline_max_dbh_cm >= 0 && sapling_outline_max_dbh_cm <= 30)) {
     throw InputError("the widest sapling's outline must lie in [0, 30] cm");
@@ -110,6 +112,39 @@ void MeasureOptions::Check() const {
   }
 }
 
+namespace {
+
+// Stems where the silhouettes' votes meet (VoteStemCentres), most votes first, for
+// RefineWithTangentRays to try where no listed stem stands.
+std::vector<Stem> VotedStems(const MeasureOptions& o, const MeasureInput& in,
+                             const GroundGrid& ground) {
+  const SilhouetteVoteOptions& vo = o.votes;
+  if (vo.max_candidates == 0) return {};
+  std::vector<cv::Mat> gray(in.bgr->size());
+  for (size_t k = 0; k < gray.size(); ++k) {
+    if (!(*in.bgr)[k].empty()) cv::cvtColor((*in.bgr)[k], gray[k], cv::COLOR_BGR2GRAY);
+  }
+  const std::vector<SilhouetteRay> rays = FindSilhouetteRays(vo, *in.camera, *in.keyframes, gray);
+  const std::vector<VoteCandidate> peaks = VoteStemCentres(vo, rays, o.stems.search_radius_m);
+  std::vector<Stem> stems;
+  for (const VoteCandidate& c : peaks) {
+    spdlog::debug("stems: silhouettes meet at ({:.2f}, {:.2f}) r {:.3f}: {} votes", c.centre_xy.x(),
+                  c.centre_xy.y(), c.radius_m, c.votes);
+    Stem s;
+    s.centre_xy = c.centre_xy;
+    s.dbh_m = s.dbh_slice_m = 2 * c.radius_m;
+    s.ground_z_m = ground.UphillHeight(c.centre_xy.x(), c.centre_xy.y(), c.radius_m);
+    s.floor_z_m = ground.FloorHeight(c.centre_xy.x(), c.centre_xy.y());
+    s.face_range_m = c.centre_xy.norm() - c.radius_m;
+    s.weak_support = true;
+    stems.push_back(std::move(s));
+  }
+  spdlog::info("stems: {} silhouettes meet in {} places", rays.size(), peaks.size());
+  return stems;
+}
+
+}  // namespace
+
 MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
   o.Check();
   if (in.cloud == nullptr || in.camera == nullptr || in.keyframes == nullptr || in.bgr == nullptr) {
@@ -143,13 +178,15 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
     sr.larger_cloud_parts =
         AttachLargerCloudParts(std::move(more.stems), o.larger_cloud_part_gap_m, &sr.stems);
   }
+  std::vector<Stem> voted = VotedStems(o, in, ground);
+  sr.silhouette_votes = static_cast<int>(voted.size());
   // The silhouettes are found at the video's resolution where it was given.
   const double silhouette_focal_px =
       in.camera->fx * (in.gray_full.empty() || in.gray_full[0].empty()
                            ? 1.0
                            : static_cast<double>(in.gray_full[0].cols) / in.camera->width);
   RefineWithTangentRays(o, *in.camera, *in.keyframes, std::move(in.gray_full), *in.bgr, &sr.stems,
-                        std::move(larger_only));
+                        std::move(larger_only), std::move(voted));
   WidthsFromStand(o, &sr.stems);
   const size_t below =
       std::erase_if(sr.stems, [&](const Stem& s) { return 100 * s.dbh_m < o.min_dbh_cm; });

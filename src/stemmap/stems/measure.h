@@ -11,6 +11,7 @@
 #include "stemmap/dense/stereo.h"
 #include "stemmap/stems/bark_depth.h"
 #include "stemmap/stems/ground.h"
+#include "stemmap/stems/silhouette_votes.h"
 #include "stemmap/stems/stems.h"
 #include "stemmap/stems/tangent.h"
 #include "stemmap/stems/uncertainty.h"
@@ -21,7 +22,10 @@ struct MeasureOptions {
   StemOptions stems;            // the cloud's parts: band, support, lean, free space
   TangentOptions tangent;       // the silhouettes' fit
   BarkDepthOptions bark_depth;  // the fit's distance from the bark
-  double min_dbh_cm = 7.0;      // stems thinner than this are not listed (a fit closed on a twig)
+  // Candidates from the images alone where neither cloud has a part: tried last, on the terms
+  // of the larger cloud's stems alone (larger_cloud_only_max_rms_px and after it).
+  SilhouetteVoteOptions votes;
+  double min_dbh_cm = 7.0;  // stems thinner than this are not listed (a fit closed on a twig)
   // A sapling's leaves, or stereo's smear of a stem a few pixels wide, make its part wider than
   // the stem, and leaves hide its outline in most views. Where the silhouettes outline a stem
   // thinner than this (cm) inside such a part (narrower than it, down to
@@ -168,8 +172,8 @@ struct MeasureOptions {
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
-    MeasureOptions, stems, tangent, bark_depth, min_dbh_cm, sapling_outline_max_dbh_cm, ground,
-    uncertainty, require_silhouette, keep_bark_confirmed_cloud, one_sided_max_over_cloud,
+    MeasureOptions, stems, tangent, bark_depth, votes, min_dbh_cm, sapling_outline_max_dbh_cm,
+    ground, uncertainty, require_silhouette, keep_bark_confirmed_cloud, one_sided_max_over_cloud,
     one_sided_min_cloud_radius_m, min_core_share, narrow_fit_share, min_bark_gap_m,
     larger_cloud_part_gap_m, larger_cloud_only_max_rms_px, larger_cloud_whole_where_open,
     wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px, tight_fit_rms_px, min_judged_px_m,

@@ -277,18 +277,28 @@ void PlaceFittedOccluders(std::span<const Stem> fitted, std::span<const Eigen::V
 int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidates,
                             const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept,
                             std::vector<Eigen::Vector3d>* occluders) {
-  int added = 0;
+  // The candidate's own circle is its cloud's, often smeared wide along the line of sight: it
+  // is taken only where its centre lies on a kept stem. A fit that slides onto one is dropped
+  // later (DropStemsFittedTwice).
+  return AddStemsWithoutPart(o, std::move(candidates), {o.larger_cloud_part_gap_m}, refine, kept,
+                             occluders);
+}
+
+int AddStemsWithoutPart(const MeasureOptions& o, std::vector<Stem> candidates,
+                        const CandidateTries& tries, const std::function<RefinedStem(Stem)>& refine,
+                        std::vector<Stem>* kept, std::vector<Eigen::Vector3d>* occluders) {
+  int added = 0, tried = 0;
   for (Stem& c : candidates) {
-    // The candidate's own circle is its cloud's, often smeared wide along the line of sight: it
-    // is taken only where its centre lies on a kept stem. A fit that slides onto one is dropped
-    // later (DropStemsFittedTwice).
+    if (tried >= tries.max_tries) break;
+    const double own_radius = tries.candidate_radius ? 0.5 * c.dbh_m : 0.0;
     const bool taken = std::ranges::any_of(*kept, [&](const Stem& k) {
-      return (k.centre_xy - c.centre_xy).norm() - 0.5 * k.dbh_m < o.larger_cloud_part_gap_m;
+      return (k.centre_xy - c.centre_xy).norm() - 0.5 * k.dbh_m - own_radius < tries.gap_m;
     });
     if (taken) continue;
+    ++tried;
     RefinedStem r = refine(std::move(c));
     spdlog::debug(
-        "stems: larger cloud's stem alone at ({:.2f}, {:.2f}): verdict {}, sharp {}, whole {}, "
+        "stems: stem without a part at ({:.2f}, {:.2f}): verdict {}, sharp {}, whole {}, "
         "seen apart {}, whole where no nearer stem hid a side {}; sides clear of nearer stems in "
         "{} and {} views",
         r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp, r.whole,
@@ -570,7 +580,8 @@ bool WideFitLinesUpOnBark(const MeasureOptions& o, const TangentFit& fit, const 
 void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_camera,
                            const std::vector<StampedPose>& keyframes,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
-                           std::vector<Stem>* stems, std::vector<Stem> larger_cloud_only) {
+                           std::vector<Stem>* stems, std::vector<Stem> larger_cloud_only,
+                           std::vector<Stem> voted) {
   // Silhouettes at the video's own resolution where the front end kept it, else the working one.
   std::vector<cv::Mat> gray = std::move(gray_full);
   PinholeCamera camera = bgr_camera;
@@ -803,13 +814,18 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
   const int hidden = AddLargerCloudOnlyStems(
       o, std::move(larger_cloud_only), [&](Stem s) { return refine_stem(std::move(s), false); },
       &kept, &occluders);
+  const size_t n_voted = voted.size();
+  const int from_votes = AddStemsWithoutPart(
+      o, std::move(voted), {o.votes.min_gap_to_listed_m, true, o.votes.max_candidates},
+      [&](Stem s) { return refine_stem(std::move(s), false); }, &kept, &occluders);
   BoundHiddenSides(o, camera, keyframes, gray, &kept);
   const int twice = DropStemsFittedTwice(o.min_bark_gap_m, &kept);
   spdlog::info(
       "stems: tangent rays fitted {} of {} stems ({} from the cores of parts) and {} of {} the "
-      "larger cloud alone found; {} parts without silhouettes dropped, {} fitted onto another "
-      "stem",
-      total.fitted, stems->size(), total.from_cores, hidden, n_larger_only, total.dropped, twice);
+      "larger cloud alone found, {} of {} places the silhouettes' votes gave; {} parts without "
+      "silhouettes dropped, {} fitted onto another stem",
+      total.fitted, stems->size(), total.from_cores, hidden, n_larger_only, from_votes, n_voted,
+      total.dropped, twice);
   *stems = std::move(kept);
 }
 

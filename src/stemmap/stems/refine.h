@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <functional>
+#include <limits>
 #include <opencv2/core.hpp>
 #include <span>
 #include <vector>
@@ -115,6 +116,19 @@ int AddLargerCloudOnlyStems(const MeasureOptions& o, std::vector<Stem> candidate
                             const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept,
                             std::vector<Eigen::Vector3d>* occluders);
 
+// Where stems found without a part of the cloud are tried: a candidate whose circle (its centre
+// alone, without candidate_radius) comes within gap_m of a kept stem's is that stem; at most
+// max_tries candidates are fitted.
+struct CandidateTries {
+  double gap_m = 0.1;
+  bool candidate_radius = false;
+  int max_tries = std::numeric_limits<int>::max();
+};
+// AddLargerCloudOnlyStems with its own rules of where candidates are tried.
+int AddStemsWithoutPart(const MeasureOptions& o, std::vector<Stem> candidates,
+                        const CandidateTries& tries, const std::function<RefinedStem(Stem)>& refine,
+                        std::vector<Stem>* kept, std::vector<Eigen::Vector3d>* occluders);
+
 // Both silhouettes in at least three views, on one circle to under max_rms_px pixels rms
 // (`px_m`: one pixel's footprint at the stem).
 bool HasSharpSilhouettes(const TangentFit& fit, double max_rms_px, double px_m);
@@ -205,10 +219,13 @@ void WidthsFromStand(const MeasureOptions& o, std::vector<Stem>* stems);
 // method it also gives the DBH. `gray_full`: the keyframes' luma at the video's resolution
 // (blurred in place), or empty to use `bgr` at the working resolution. `larger_cloud_only`
 // (nearest first) are tried after them where no listed stem stands, and listed on sharp
-// silhouettes (MeasureOptions::larger_cloud_only_max_rms_px), flagged silhouette_only.
+// silhouettes (MeasureOptions::larger_cloud_only_max_rms_px), flagged silhouette_only; `voted`
+// (the silhouettes' votes, most first) after them on the same terms, clear of the listed stems
+// by SilhouetteVoteOptions::min_gap_to_listed_m.
 void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_camera,
                            const std::vector<StampedPose>& keyframes,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
-                           std::vector<Stem>* stems, std::vector<Stem> larger_cloud_only = {});
+                           std::vector<Stem>* stems, std::vector<Stem> larger_cloud_only = {},
+                           std::vector<Stem> voted = {});
 
 }  // namespace stemmap::stems

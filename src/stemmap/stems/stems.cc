@@ -81,6 +81,7 @@ nlohmann::json StemsResult::Summary() const {
           {"vetoed_free_space", vetoed_free_space},
           {"larger_cloud_parts", larger_cloud_parts},
           {"larger_cloud_only", larger_cloud_only},
+          {"silhouette_votes", silhouette_votes},
           {"mixed_part_cores", mixed_part_cores}};
 }
 

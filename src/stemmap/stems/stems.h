@@ -201,6 +201,7 @@ struct StemsResult {
   int components = 0, rejected_size = 0, rejected_vertical = 0, vetoed_free_space = 0;
   int larger_cloud_parts = 0;  // AttachLargerCloudParts
   int larger_cloud_only = 0;   // stems of the larger cloud alone, tried on their silhouettes
+  int silhouette_votes = 0;    // places the silhouettes alone gave (VoteStemCentres), tried last
   int mixed_part_cores = 0;    // cores of parts no stem as a whole (split_mixed_parts_into_cores)
   nlohmann::json Summary() const;
 };

@@ -1,0 +1,491 @@
+#include "stemmap/stems/silhouette_votes.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <optional>
+
+#include "stemmap/core/error.h"
+#include "stemmap/stems/silhouette.h"
+
+namespace stemmap::stems {
+
+void SilhouetteVoteOptions::Check() const {
+  if (max_candidates < 0) throw InputError("the silhouette votes' candidates must not be negative");
+  if (!(min_gap_to_listed_m >= 0)) {
+    throw InputError("the silhouette votes' gap to a listed stem must not be negative");
+  }
+  if (!(cell_m > 0.005 && cell_m <= 0.5)) {
+    throw InputError("the silhouette vote grid's cell must lie in (0.005, 0.5] m");
+  }
+  if (!(min_radius_m > 0 && max_radius_m >= min_radius_m && radius_step_m > 0)) {
+    throw InputError("the silhouette votes' radii must be positive and ordered");
+  }
+  if (!(min_range_m >= 0))
+    throw InputError("the silhouette votes' least range must not be negative");
+  if (strip_rows < 2) throw InputError("the silhouette strip needs at least two rows");
+  if (!(strip_half_height_m > 0 && strip_range_m > 0)) {
+    throw InputError("the silhouette strip's height and range must be positive");
+  }
+  if (!(min_edge_step > 0)) throw InputError("the silhouette edge step must be positive");
+  if (!(min_edge_straightness >= 0 && min_edge_straightness <= 1)) {
+    throw InputError("the silhouette edge straightness must lie in [0, 1]");
+  }
+  if (!(neighbour_baseline_m > 0)) {
+    throw InputError("the silhouette votes' neighbour baseline must be positive");
+  }
+  if (side_patch_px < 3 || side_guard_px < 0) {
+    throw InputError("a silhouette side's patch needs at least 3 columns and no negative guard");
+  }
+  if (!(max_parallax_px >= 1)) throw InputError("the silhouette votes' parallax must reach 1 px");
+  if (!(min_side_ncc >= -1 && min_side_ncc <= 1)) {
+    throw InputError("a silhouette side's correlation must lie in [-1, 1]");
+  }
+  if (!(min_parallax_step_px >= 0 && flat_side_sd >= 0 && parallax_sd_px > 0)) {
+    throw InputError("the silhouette sides' parallax step, flatness and SD must not be negative");
+  }
+  if (!(min_vote_span_m >= 0)) throw InputError("a silhouette's vote span must not be negative");
+  if (min_votes_each_side < 0) {
+    throw InputError("a silhouette vote candidate's votes on each side must not be negative");
+  }
+  if (min_votes < 1) throw InputError("a silhouette vote candidate needs at least one vote");
+  if (!(min_separation_m >= 0)) {
+    throw InputError("the silhouette vote candidates' separation must not be negative");
+  }
+}
+
+namespace {
+
+double Wrap(double a) { return std::remainder(a, 2 * M_PI); }
+
+// One keyframe's strip of the picture, resampled so that each column is one world azimuth from
+// the camera centre (a step of one pixel at the image centre) and each row one height at
+// strip_range_m: a vertical line at any distance projects onto one column, and a point at
+// infinity onto the same column in every view.
+struct AzimuthStrip {
+  Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();
+  int64_t first_index = 0;  // global azimuth index of column 0 (azimuth: index times step)
+  cv::Mat_<float> luma;     // rows x columns; NaN outside the picture
+  bool empty() const { return luma.empty(); }
+};
+
+AzimuthStrip MakeStrip(const SilhouetteVoteOptions& o, const PinholeCamera& cam,
+                       const Rigid3d& world_from_cam, const cv::Mat& gray, double yaw,
+                       double az_step) {
+  AzimuthStrip s;
+  const Eigen::Vector3d c = world_from_cam.translation;
+  s.centre_xy = c.head<2>();
+  const double half = 0.92 * std::atan(0.5 * cam.width / cam.fx);
+  s.first_index = static_cast<int64_t>(std::ceil((yaw - half) / az_step));
+  const int64_t last = static_cast<int64_t>(std::floor((yaw + half) / az_step));
+  const int cols = static_cast<int>(last - s.first_index + 1);
+  if (cols < 3) return s;
+  const Rigid3d cam_from_world = world_from_cam.Inverse();
+  s.luma.create(o.strip_rows, cols);
+  for (int col = 0; col < cols; ++col) {
+    const double a = static_cast<double>(s.first_index + col) * az_step;
+    const Eigen::Vector3d base = c + o.strip_range_m * Eigen::Vector3d(std::cos(a), std::sin(a), 0);
+    for (int j = 0; j < o.strip_rows; ++j) {
+      const double dz = (2.0 * j / (o.strip_rows - 1) - 1.0) * o.strip_half_height_m;
+      const Eigen::Vector3d p = cam_from_world * (base + Eigen::Vector3d(0, 0, dz));
+      float v = -1.f;
+      if (p.z() > 0.1) {
+        const Eigen::Vector2d px = cam.ImageFromCam(p);
+        v = BilinearGray(gray, px.x(), px.y());
+      }
+      s.luma(j, col) = v < 0 ? std::numeric_limits<float>::quiet_NaN() : v;
+    }
+  }
+  return s;
+}
+
+// Straight vertical edges of a strip: (column, subpixel offset) at local maxima of the mean
+// step across two columns.
+std::vector<double> StripEdges(const SilhouetteVoteOptions& o, const AzimuthStrip& s) {
+  const int cols = s.luma.cols, rows = s.luma.rows;
+  std::vector<double> step(cols, 0.0), score(cols, 0.0);
+  for (int c = 1; c + 1 < cols; ++c) {
+    double sum = 0, sum_abs = 0;
+    bool valid = true;
+    for (int j = 0; j < rows && valid; ++j) {
+      const double d = s.luma(j, c + 1) - s.luma(j, c - 1);
+      valid = std::isfinite(d);
+      sum += d;
+      sum_abs += std::abs(d);
+    }
+    if (!valid) continue;
+    step[c] = std::abs(sum) / rows;
+    if (step[c] >= o.min_edge_step && std::abs(sum) >= o.min_edge_straightness * sum_abs) {
+      score[c] = step[c];
+    }
+  }
+  std::vector<double> edges;
+  for (int c = 2; c + 2 < cols; ++c) {
+    if (score[c] == 0) continue;
+    const bool peak = score[c] >= score[c - 1] && score[c] > score[c + 1] &&
+                      score[c] >= score[c - 2] && score[c] > score[c + 2];
+    if (!peak) continue;
+    const double den = step[c - 1] - 2 * step[c] + step[c + 1];
+    const double off = den < 0 ? std::clamp(0.5 * (step[c - 1] - step[c + 1]) / den, -0.5, 0.5) : 0;
+    edges.push_back(c + off);
+  }
+  return edges;
+}
+
+struct SideMatch {
+  double ncc = -1, parallax_px = 0, sd = 0;
+};
+
+// The patch of strip `a` at columns [c0, c0 + w) matched in strip `b` over parallaxes (columns
+// of b minus a's at the same azimuth) in [-max, max]: the best zero-mean correlation, with a
+// parabola's subpixel peak.
+SideMatch MatchSide(const AzimuthStrip& a, const AzimuthStrip& b, int c0, int w, int max_px) {
+  SideMatch m;
+  const int rows = a.luma.rows;
+  if (c0 < 0 || c0 + w > a.luma.cols) return m;
+  double mean = 0;
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < w; ++i) mean += a.luma(j, c0 + i);
+  }
+  const int n = rows * w;
+  mean /= n;
+  double var = 0;
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < w; ++i) var += std::pow(a.luma(j, c0 + i) - mean, 2);
+  }
+  if (!std::isfinite(var)) return m;
+  m.sd = std::sqrt(var / n);
+  const int64_t offset = a.first_index - b.first_index;
+  std::vector<double> ncc(2 * max_px + 1, -2.0);
+  for (int p = -max_px; p <= max_px; ++p) {
+    const int64_t b0 = c0 + offset + p;
+    if (b0 < 0 || b0 + w > b.luma.cols) continue;
+    double mb = 0;
+    for (int j = 0; j < rows; ++j) {
+      for (int i = 0; i < w; ++i) mb += b.luma(j, static_cast<int>(b0) + i);
+    }
+    mb /= n;
+    double cov = 0, vb = 0;
+    for (int j = 0; j < rows; ++j) {
+      for (int i = 0; i < w; ++i) {
+        const double db = b.luma(j, static_cast<int>(b0) + i) - mb;
+        cov += (a.luma(j, c0 + i) - mean) * db;
+        vb += db * db;
+      }
+    }
+    if (!(vb > 0 && var > 0)) continue;
+    ncc[p + max_px] = cov / std::sqrt(var * vb);
+  }
+  const auto best = std::ranges::max_element(ncc);
+  if (*best < -1.5) return m;
+  const int i = static_cast<int>(best - ncc.begin());
+  m.ncc = *best;
+  double off = 0;
+  if (i > 0 && i + 1 < static_cast<int>(ncc.size()) && ncc[i - 1] > -1.5 && ncc[i + 1] > -1.5) {
+    const double den = ncc[i - 1] - 2 * ncc[i] + ncc[i + 1];
+    if (den < 0) off = std::clamp(0.5 * (ncc[i - 1] - ncc[i + 1]) / den, -0.5, 0.5);
+  }
+  m.parallax_px = i - max_px + off;
+  return m;
+}
+
+// Distance along the ray from `o1` at azimuth a1 to where the ray from `o2` at azimuth a2 meets
+// it; infinity where they do not meet in front of both.
+double Triangulate(const Eigen::Vector2d& o1, double a1, const Eigen::Vector2d& o2, double a2) {
+  const Eigen::Vector2d u1(std::cos(a1), std::sin(a1)), u2(std::cos(a2), std::sin(a2));
+  Eigen::Matrix2d m;
+  m << u1, -u2;
+  const double det = m.determinant();
+  if (std::abs(det) < 1e-9) return std::numeric_limits<double>::infinity();
+  const Eigen::Vector2d ts = m.inverse() * (o2 - o1);
+  if (ts.x() <= 0 || ts.y() <= 0) return std::numeric_limits<double>::infinity();
+  return ts.x();
+}
+
+// One neighbour's verdict on an edge at strip column `edge`: which side lies nearer (+1 higher
+// azimuth, -1 lower) and that side's parallax, or nothing where it cannot tell.
+struct SideVerdict {
+  int nearer = 0;
+  double parallax_px = 0;
+};
+
+std::optional<SideVerdict> JudgeSides(const SilhouetteVoteOptions& o, const AzimuthStrip& a,
+                                      const AzimuthStrip& b, double edge, double az_step) {
+  const int c = static_cast<int>(std::lround(edge));
+  const int w = o.side_patch_px, g = o.side_guard_px;
+  const int max_px = static_cast<int>(o.max_parallax_px);
+  const SideMatch lo = MatchSide(a, b, c - g - w, w, max_px);
+  const SideMatch hi = MatchSide(a, b, c + g + 1, w, max_px);
+  // The sign of parallax a nearer point takes: that of a point strip_range_m out.
+  const double a_edge = edge * az_step + static_cast<double>(a.first_index) * az_step;
+  const Eigen::Vector2d p =
+      a.centre_xy + o.strip_range_m * Eigen::Vector2d(std::cos(a_edge), std::sin(a_edge));
+  const Eigen::Vector2d d = p - b.centre_xy;
+  const double sign = Wrap(std::atan2(d.y(), d.x()) - a_edge) >= 0 ? 1.0 : -1.0;
+  const bool lo_flat = lo.sd <= o.flat_side_sd, hi_flat = hi.sd <= o.flat_side_sd;
+  const bool lo_ok = !lo_flat && lo.ncc >= o.min_side_ncc;
+  const bool hi_ok = !hi_flat && hi.ncc >= o.min_side_ncc;
+  if (lo_ok && hi_ok) {
+    const double gap = sign * (hi.parallax_px - lo.parallax_px);
+    if (std::abs(gap) < o.min_parallax_step_px) return std::nullopt;
+    return gap > 0 ? SideVerdict{1, hi.parallax_px} : SideVerdict{-1, lo.parallax_px};
+  }
+  if (lo_ok && hi_flat) return SideVerdict{-1, lo.parallax_px};
+  if (hi_ok && lo_flat) return SideVerdict{1, hi.parallax_px};
+  return std::nullopt;
+}
+
+// The keyframe nearest `k` along the turn (step -1 or +1) whose centre lies at least
+// baseline_m from k's, or -1.
+int NeighbourAlong(const std::vector<AzimuthStrip>& strips, int k, int step, double baseline_m) {
+  const int n = static_cast<int>(strips.size());
+  for (int j = k + step; j >= 0 && j < n && std::abs(j - k) <= 40; j += step) {
+    if (strips[j].empty()) continue;
+    if ((strips[j].centre_xy - strips[k].centre_xy).norm() >= baseline_m) return j;
+  }
+  return -1;
+}
+
+// The unit normal of a silhouette's ray toward its nearer side.
+Eigen::Vector2d NearNormal(const SilhouetteRay& ray) {
+  return ray.near_side * Eigen::Vector2d(-std::sin(ray.azimuth_rad), std::cos(ray.azimuth_rad));
+}
+
+// Whether a silhouette votes for the stem `c`: its line moved by c's radius toward its nearer
+// side passes within a cell and a half of c's centre, within the range its parallax allows.
+bool Supports(const SilhouetteVoteOptions& o, const SilhouetteRay& ray, const VoteCandidate& c) {
+  const Eigen::Vector2d q = c.centre_xy - ray.origin_xy;
+  const double along = q.dot(Eigen::Vector2d(std::cos(ray.azimuth_rad), std::sin(ray.azimuth_rad)));
+  return std::abs(NearNormal(ray).dot(q) - c.radius_m) <= 1.5 * o.cell_m &&
+         along >= ray.min_distance_m - o.cell_m && along <= ray.max_distance_m + o.cell_m;
+}
+
+// The centre and radius the silhouettes voting for `c` give together: each is tangent to the
+// stem, n . (centre - origin) = r with n the ray's normal toward its nearer side, solved by
+// least squares over those whose moved line passes within a cell and a half of c's cell and
+// whose range reaches it. Where their directions span too little to separate the radius from
+// the distance, the radius stays and the centre alone is solved; where even that fails, or the
+// solution moves farther than `max_move_m`, `c` stays as it is. Returns whether it moved.
+bool RefineCandidateOnce(const SilhouetteVoteOptions& o, const std::vector<SilhouetteRay>& rays,
+                         double max_move_m, VoteCandidate* c) {
+  Eigen::Matrix3d ata = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d atb = Eigen::Vector3d::Zero();
+  int n = 0;
+  for (const SilhouetteRay& ray : rays) {
+    if (!Supports(o, ray, *c)) continue;
+    const Eigen::Vector2d normal = NearNormal(ray);
+    // normal . centre - r = normal . origin
+    const Eigen::Vector3d row(normal.x(), normal.y(), -1.0);
+    ata += row * row.transpose();
+    atb += row * normal.dot(ray.origin_xy);
+    ++n;
+  }
+  if (n < 3) return false;
+  const Eigen::Vector3d full = ata.ldlt().solve(atb);
+  const bool full_ok = std::isfinite(full.z()) && full.z() >= 0.5 * o.min_radius_m &&
+                       full.z() <= o.max_radius_m + o.radius_step_m &&
+                       (full.head<2>() - c->centre_xy).norm() < max_move_m &&
+                       ata.determinant() > 1e-6 * std::pow(n, 3);
+  if (full_ok) {
+    c->centre_xy = full.head<2>();
+    c->radius_m = full.z();
+    return true;
+  }
+  // The radius fixed: normal . centre = normal . origin + r.
+  const Eigen::Matrix2d a2 = ata.topLeftCorner<2, 2>();
+  const Eigen::Vector2d b2 = atb.head<2>() - ata.topRightCorner<2, 1>() * c->radius_m;
+  if (a2.determinant() <= 1e-6 * n * n) return false;
+  const Eigen::Vector2d centre = a2.ldlt().solve(b2);
+  if (!((centre - c->centre_xy).norm() < max_move_m)) return false;
+  c->centre_xy = centre;
+  return true;
+}
+
+// A few rounds of RefineCandidateOnce, each asking the silhouettes that vote where the last one
+// placed it (a stem's silhouettes from a short arc cross along a ridge in the line of sight, and
+// the cell with the most votes may lie anywhere on it), moving at most min_separation_m in all.
+void RefineCandidate(const SilhouetteVoteOptions& o, const std::vector<SilhouetteRay>& rays,
+                     VoteCandidate* c) {
+  const Eigen::Vector2d start = c->centre_xy;
+  for (int round = 0; round < 4; ++round) {
+    VoteCandidate next = *c;
+    if (!RefineCandidateOnce(o, rays, o.min_separation_m, &next)) return;
+    if ((next.centre_xy - start).norm() > o.min_separation_m) return;
+    const bool settled = (next.centre_xy - c->centre_xy).norm() < 0.1 * o.cell_m;
+    *c = next;
+    if (settled) return;
+  }
+}
+
+}  // namespace
+
+std::vector<SilhouetteRay> FindSilhouetteRays(const SilhouetteVoteOptions& o,
+                                              const PinholeCamera& camera,
+                                              const std::vector<StampedPose>& keyframes,
+                                              const std::vector<cv::Mat>& gray) {
+  o.Check();
+  const int n = static_cast<int>(std::min(keyframes.size(), gray.size()));
+  const double az_step = 1.0 / camera.fx;
+  // The cameras' yaw, unwrapped along the turn so that neighbours' strips share azimuth indices.
+  std::vector<double> yaw(n, 0.0);
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector3d f = keyframes[k].world_from_cam.rotation * Eigen::Vector3d::UnitZ();
+    const double a = std::atan2(f.y(), f.x());
+    yaw[k] = k == 0 ? a : yaw[k - 1] + Wrap(a - yaw[k - 1]);
+  }
+  std::vector<AzimuthStrip> strips(n);
+#pragma omp parallel for schedule(dynamic)
+  for (int k = 0; k < n; ++k) {
+    if (gray[k].empty()) continue;
+    strips[k] = MakeStrip(o, camera, keyframes[k].world_from_cam, gray[k], yaw[k], az_step);
+  }
+  std::vector<std::vector<SilhouetteRay>> per_view(n);
+#pragma omp parallel for schedule(dynamic)
+  for (int k = 0; k < n; ++k) {
+    if (strips[k].empty()) continue;
+    const AzimuthStrip& a = strips[k];
+    const std::array<int, 2> neighbours = {NeighbourAlong(strips, k, -1, o.neighbour_baseline_m),
+                                           NeighbourAlong(strips, k, 1, o.neighbour_baseline_m)};
+    for (const double edge : StripEdges(o, a)) {
+      const double az = (static_cast<double>(a.first_index) + edge) * az_step;
+      // Each neighbour that tells the sides apart must tell the same; the larger parallax
+      // places the surface best.
+      std::optional<SideVerdict> verdict;
+      int agreeing = 0;
+      bool conflict = false;
+      int best_neighbour = -1;
+      for (const int j : neighbours) {
+        if (j < 0) continue;
+        const std::optional<SideVerdict> v = JudgeSides(o, a, strips[j], edge, az_step);
+        if (!v) continue;
+        if (verdict && verdict->nearer != v->nearer) conflict = true;
+        if (!verdict || std::abs(v->parallax_px) > std::abs(verdict->parallax_px)) {
+          verdict = v;
+          best_neighbour = j;
+        }
+        ++agreeing;
+      }
+      if (!verdict || conflict || agreeing == 0) continue;
+      const AzimuthStrip& b = strips[best_neighbour];
+      auto distance = [&](double parallax_px) {
+        return Triangulate(a.centre_xy, az, b.centre_xy, az + parallax_px * az_step);
+      };
+      const double p = verdict->parallax_px;
+      const double sign = p >= 0 ? 1.0 : -1.0;
+      const double d = distance(p);
+      if (!std::isfinite(d)) continue;
+      SilhouetteRay r;
+      r.origin_xy = a.centre_xy;
+      r.azimuth_rad = az;
+      r.near_side = verdict->nearer;
+      r.distance_m = d;
+      r.min_distance_m = std::min(distance(p + sign * o.parallax_sd_px), d - o.min_vote_span_m);
+      const double far = std::abs(p) > o.parallax_sd_px ? distance(p - sign * o.parallax_sd_px)
+                                                        : std::numeric_limits<double>::infinity();
+      r.max_distance_m = std::max(far, d + o.min_vote_span_m);
+      per_view[k].push_back(r);
+    }
+  }
+  std::vector<SilhouetteRay> rays;
+  for (auto& v : per_view) rays.insert(rays.end(), v.begin(), v.end());
+  return rays;
+}
+
+std::vector<VoteCandidate> VoteStemCentres(const SilhouetteVoteOptions& o,
+                                           const std::vector<SilhouetteRay>& rays,
+                                           double search_radius_m) {
+  o.Check();
+  const double extent = search_radius_m + o.max_radius_m;
+  const int cells = static_cast<int>(std::ceil(2 * extent / o.cell_m));
+  const int radii =
+      static_cast<int>(std::floor((o.max_radius_m - o.min_radius_m) / o.radius_step_m)) + 1;
+  std::vector<uint16_t> votes(static_cast<size_t>(radii) * cells * cells, 0);
+  auto at = [&](int ri, int ix, int iy) -> uint16_t& {
+    return votes[(static_cast<size_t>(ri) * cells + iy) * cells + ix];
+  };
+  for (const SilhouetteRay& ray : rays) {
+    const Eigen::Vector2d u(std::cos(ray.azimuth_rad), std::sin(ray.azimuth_rad));
+    const Eigen::Vector2d side = ray.near_side * Eigen::Vector2d(-u.y(), u.x());
+    const double t0 = std::max(ray.min_distance_m, 0.0);
+    const double t1 = std::min(ray.max_distance_m, 2 * extent);
+    if (!(t1 > t0)) continue;
+    // One cell per step along the line's major axis.
+    const double dt = o.cell_m / std::max(std::abs(u.x()), std::abs(u.y()));
+    const int steps = static_cast<int>(std::ceil((t1 - t0) / dt)) + 1;
+    for (int ri = 0; ri < radii; ++ri) {
+      const double r = o.min_radius_m + ri * o.radius_step_m;
+      const Eigen::Vector2d start = ray.origin_xy + r * side;
+      for (int i = 0; i < steps; ++i) {
+        const Eigen::Vector2d q = start + (t0 + i * dt) * u;
+        const int ix = static_cast<int>(std::floor((q.x() + extent) / o.cell_m));
+        const int iy = static_cast<int>(std::floor((q.y() + extent) / o.cell_m));
+        if (ix < 0 || iy < 0 || ix >= cells || iy >= cells) continue;
+        uint16_t& v = at(ri, ix, iy);
+        if (v < UINT16_MAX) ++v;
+      }
+    }
+  }
+  struct Peak {
+    int votes;
+    size_t index;
+  };
+  std::vector<Peak> peaks;
+  for (size_t i = 0; i < votes.size(); ++i) {
+    if (votes[i] < o.min_votes) continue;
+    const int ix = static_cast<int>(i % cells), iy = static_cast<int>((i / cells) % cells);
+    const Eigen::Vector2d c(-extent + (ix + 0.5) * o.cell_m, -extent + (iy + 0.5) * o.cell_m);
+    if (c.norm() < o.min_range_m || c.norm() > search_radius_m) continue;
+    peaks.push_back({votes[i], i});
+  }
+  std::ranges::sort(peaks, [](const Peak& a, const Peak& b) {
+    return a.votes != b.votes ? a.votes > b.votes : a.index < b.index;
+  });
+  // Enough for every stem of a dense plot and the ridges its silhouettes leave along the line of
+  // sight; the caller takes the listed stems away and keeps max_candidates.
+  constexpr size_t kMaxPeaks = 1000;
+  std::vector<VoteCandidate> found;
+  for (const Peak& p : peaks) {
+    const int ix = static_cast<int>(p.index % cells);
+    const int iy = static_cast<int>((p.index / cells) % cells);
+    const int ri = static_cast<int>(p.index / (static_cast<size_t>(cells) * cells));
+    VoteCandidate c;
+    c.centre_xy = {-extent + (ix + 0.5) * o.cell_m, -extent + (iy + 0.5) * o.cell_m};
+    c.radius_m = o.min_radius_m + ri * o.radius_step_m;
+    c.votes = p.votes;
+    const bool near = std::ranges::any_of(found, [&](const VoteCandidate& f) {
+      return (f.centre_xy - c.centre_xy).norm() < o.min_separation_m;
+    });
+    if (!near) found.push_back(c);
+    if (found.size() >= kMaxPeaks) break;
+  }
+  // Refined, each stands on the silhouettes that vote where it ends up, on both of its sides
+  // (a stem's silhouettes from one side alone pile up along their common direction at any
+  // radius); most votes first, one of any two that end up within min_separation_m.
+  std::vector<VoteCandidate> refined;
+  for (VoteCandidate c : found) {
+    RefineCandidate(o, rays, &c);
+    if (c.centre_xy.norm() < o.min_range_m || c.centre_xy.norm() > search_radius_m) continue;
+    std::array<int, 2> sides = {0, 0};
+    for (const SilhouetteRay& ray : rays) {
+      if (Supports(o, ray, c)) ++sides[ray.near_side > 0 ? 1 : 0];
+    }
+    c.votes = sides[0] + sides[1];
+    if (std::min(sides[0], sides[1]) < o.min_votes_each_side || c.votes < o.min_votes) continue;
+    refined.push_back(c);
+  }
+  std::ranges::stable_sort(
+      refined, [](const VoteCandidate& a, const VoteCandidate& b) { return a.votes > b.votes; });
+  std::vector<VoteCandidate> kept;
+  for (const VoteCandidate& c : refined) {
+    const bool near = std::ranges::any_of(kept, [&](const VoteCandidate& k) {
+      return (k.centre_xy - c.centre_xy).norm() < o.min_separation_m;
+    });
+    if (!near) kept.push_back(c);
+  }
+  return kept;
+}
+
+}  // namespace stemmap::stems
