@@ -136,10 +136,11 @@ std::vector<Stem> VotedStems(const MeasureOptions& o, const MeasureInput& in,
     s.ground_z_m = ground.UphillHeight(c.centre_xy.x(), c.centre_xy.y(), c.radius_m);
     s.floor_z_m = ground.FloorHeight(c.centre_xy.x(), c.centre_xy.y());
     s.face_range_m = c.centre_xy.norm() - c.radius_m;
-    s.weak_support = true;
+    s.silhouette_votes = c.votes;
     stems.push_back(std::move(s));
   }
-  spdlog::info("stems: {} silhouettes meet in {} places", rays.size(), peaks.size());
+  spdlog::info("stems: {} silhouettes meet in {} places, {} of them no thinner than the DBH floor",
+               rays.size(), peaks.size(), stems.size());
   return stems;
 }
 

@@ -299,10 +299,10 @@ int AddStemsWithoutPart(const MeasureOptions& o, std::vector<Stem> candidates,
     RefinedStem r = refine(std::move(c));
     spdlog::debug(
         "stems: stem without a part at ({:.2f}, {:.2f}): verdict {}, sharp {}, whole {}, "
-        "seen apart {}, whole where no nearer stem hid a side {}; sides clear of nearer stems in "
-        "{} and {} views",
+        "seen apart {}, whole where no nearer stem hid a side {}, agrees with votes {}; sides "
+        "clear of nearer stems in {} and {} views",
         r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp, r.whole,
-        r.seen_apart, r.whole_where_open, r.stem.evidence.clear_side_views[0],
+        r.seen_apart, r.whole_where_open, r.agrees_with_votes, r.stem.evidence.clear_side_views[0],
         r.stem.evidence.clear_side_views[1]);
     // Both sides in half the views to a couple of pixels stand as a part's core would alone.
     // Straight behind a listed stem, each side in views of its own on one circle stands too:
@@ -313,7 +313,7 @@ int AddStemsWithoutPart(const MeasureOptions& o, std::vector<Stem> candidates,
     const bool whole_where_open = o.larger_cloud_whole_where_open && r.whole_where_open &&
                                   r.stem.dbh_m >= 0.01 * o.min_dbh_cm;
     if (r.verdict != SilhouetteVerdict::kUse ||
-        !(r.sharp || r.whole || r.seen_apart || whole_where_open)) {
+        !(r.sharp || r.whole || r.seen_apart || whole_where_open || r.agrees_with_votes)) {
       continue;
     }
     r.stem.flags.Set(StemFlag::kSilhouetteOnly);
@@ -663,6 +663,21 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
           f.centre.x(), f.centre.y(), f.radius_m, bark.peak_ncc, f.two_sided_views, f.tried_views);
       f = outline;
     }
+    // The votes' circle and the outline's, from different edges, agree: the bark need not line
+    // up, but it must correlate somewhere (BarkDepthOptions::min_surface_ncc): inside a leaf
+    // clump's or a shrub's outline nothing does.
+    const bool agrees_with_votes = s.silhouette_votes > 0 && outline.ok &&
+                                   FitAgreesWithVotes(o.votes, s.centre_xy, r0, outline.centre,
+                                                      outline.radius_m, outline.two_sided_views) &&
+                                   (f.ok || bark.peak_ncc >= o.bark_depth.min_surface_ncc);
+    if (!f.ok && agrees_with_votes) {
+      spdlog::debug(
+          "stems: ({:.2f}, {:.2f}) r {:.3f}: the outline agrees with the silhouettes' votes ({} at "
+          "r {:.3f}), the bark does not line up (ncc {:.2f})",
+          outline.centre.x(), outline.centre.y(), outline.radius_m, s.silhouette_votes, r0,
+          bark.peak_ncc);
+      f = outline;
+    }
     // (Not asked of a fit held on its face: the cloud saw a sliver of it, its width no bound.)
     if (f.ok && !on_face && !WideFitLinesUpOnBark(o, f, bark, r0)) {
       spdlog::debug(
@@ -790,6 +805,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       s.dbh_sd_m = s.dbh_tangent_sd_m;
     }
     RefinedStem refined{verdict, std::move(s), clean, whole, agrees, sharp, seen_apart};
+    refined.agrees_with_votes = agrees_with_votes;
     refined.whole_where_open =
         clean && bark.ok && f.open_views < f.tried_views && 2 * f.two_sided_views >= f.open_views;
     return refined;

@@ -77,6 +77,9 @@ struct RefinedStem {
   // in half the views where no nearer stem hid a side (TangentFit::open_views), some of the
   // views it was tried in having a side hidden so.
   bool whole_where_open = false;
+  // A stem the silhouettes' votes alone gave, whose fit agrees with their circle
+  // (FitAgreesWithVotes).
+  bool agrees_with_votes = false;
 };
 struct PartOutcome {
   int fitted = 0;      // stems placed by their silhouettes

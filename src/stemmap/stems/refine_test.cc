@@ -453,6 +453,34 @@ TEST(AddLargerCloudOnlyStems, TriesASmearedStemWhoseCircleReachesAListedOne) {
   }
 }
 
+// Candidates the silhouettes' votes gave: tried where their circle (not only their centre) stays
+// clear of every listed stem, at most max_tries of them; listed where their fit agrees with the
+// votes though it is neither sharp nor whole.
+TEST(AddStemsWithoutPart, VotedCandidatesClearOfListedStemsUpToTheirCount) {
+  const MeasureOptions o;
+  std::vector<Stem> kept = {Fitted(4.0, 0.0, 0.3, 0.0)};
+  std::vector<Eigen::Vector3d> occluders = {{4.0, 0.0, 0.15}};
+  const std::vector<Stem> candidates = {
+      Fitted(4.4, 0.0, 0.2, 0.0),    // its circle comes within 0.3 m of the listed stem's
+      Fitted(6.0, 2.0, 0.12, 0.0),   // agrees with its votes: listed
+      Fitted(6.0, -2.0, 0.2, 0.0),   // neither agrees nor is whole
+      Fitted(-6.0, 2.0, 0.2, 0.0)};  // past max_tries
+  std::vector<double> tried_y;
+  const int added = AddStemsWithoutPart(
+      o, candidates, {0.3, true, 2},
+      [&](Stem s) {
+        tried_y.push_back(s.centre_xy.y());
+        RefinedStem r{SilhouetteVerdict::kUse, std::move(s)};
+        r.agrees_with_votes = r.stem.centre_xy.y() > 0;
+        return r;
+      },
+      &kept, &occluders);
+  EXPECT_EQ(added, 1);
+  EXPECT_EQ(tried_y, (std::vector<double>{2.0, -2.0}));
+  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_EQ(kept[1].flags.Names(), std::vector<std::string_view>{"silhouette_only"});
+}
+
 // A fit the bark rejected, with its silhouettes' counts (no side hidden in any view).
 TangentFit RejectedFit(int rays, int two_sided_views, int tried_views) {
   TangentFit f;

@@ -52,9 +52,21 @@ void SilhouetteVoteOptions::Check() const {
     throw InputError("a silhouette vote candidate's votes on each side must not be negative");
   }
   if (min_votes < 1) throw InputError("a silhouette vote candidate needs at least one vote");
+  if (!(agree_radius_share >= 0 && agree_radius_m >= 0 && agree_min_two_sided_views >= 0)) {
+    throw InputError("the silhouette votes' agreement with a fit must not be negative");
+  }
   if (!(min_separation_m >= 0)) {
     throw InputError("the silhouette vote candidates' separation must not be negative");
   }
+}
+
+bool FitAgreesWithVotes(const SilhouetteVoteOptions& o, const Eigen::Vector2d& vote_centre,
+                        double vote_radius_m, const Eigen::Vector2d& centre, double radius_m,
+                        int two_sided_views) {
+  return o.agree_min_two_sided_views > 0 && two_sided_views >= o.agree_min_two_sided_views &&
+         std::abs(radius_m - vote_radius_m) <=
+             o.agree_radius_share * vote_radius_m + o.agree_radius_m &&
+         (centre - vote_centre).norm() <= std::max(vote_radius_m, o.cell_m);
 }
 
 namespace {

@@ -62,6 +62,15 @@ struct SilhouetteVoteOptions {
   // candidates stand at least this far apart (m).
   int min_votes = 8;
   int min_votes_each_side = 3;
+  // A candidate stands on its silhouettes' fit (TangentFit, from the neighbours' disagreement,
+  // not from brightness steps) where that fit agrees with the votes' circle: its radius within
+  // this share of the votes' and this much more (m), its centre within the votes' radius (and a
+  // cell), both sides in at least this many views. Two estimators from different edges meeting
+  // on one circle: the bark need not line up (leaves hold still across it as bark does; a stem
+  // seen past nearer stems shows too little of it). 0 views: off.
+  double agree_radius_share = 0.2;
+  double agree_radius_m = 0.005;
+  int agree_min_two_sided_views = 3;
   double min_separation_m = 0.5;
   void Check() const;
 };
@@ -70,7 +79,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     radius_step_m, min_range_m, strip_rows, strip_half_height_m, strip_range_m, min_edge_step,
     min_edge_straightness, neighbour_baseline_m, side_patch_px, side_guard_px, max_parallax_px,
     min_side_ncc, min_parallax_step_px, flat_side_sd, parallax_sd_px, min_vote_span_m, min_votes,
-    min_votes_each_side, min_separation_m)
+    min_votes_each_side, min_separation_m, agree_radius_share, agree_radius_m,
+    agree_min_two_sided_views)
 
 // A silhouette in the plot plane: the camera centre, the ray's azimuth, the side the nearer
 // surface lies on (+1 left of the ray looking along it, -1 right) and the distance along the ray
@@ -87,6 +97,12 @@ struct VoteCandidate {
   double radius_m = 0.0;
   int votes = 0;
 };
+
+// Whether a fit of the silhouettes (centre, radius_m, two-sided in two_sided_views) agrees with
+// the votes' circle (vote_centre, vote_radius_m) as SilhouetteVoteOptions::agree_* says.
+bool FitAgreesWithVotes(const SilhouetteVoteOptions& o, const Eigen::Vector2d& vote_centre,
+                        double vote_radius_m, const Eigen::Vector2d& centre, double radius_m,
+                        int two_sided_views);
 
 // The silhouettes of every keyframe (gray: CV_8U per keyframe, empty where missing; camera: of
 // those images; keyframes: plot frame, in the order of the turn).

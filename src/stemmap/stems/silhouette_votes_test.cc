@@ -63,6 +63,23 @@ TEST(SilhouetteVoteOptions, EveryFieldIsChecked) {
   throws([](SilhouetteVoteOptions& o) { o.min_vote_span_m = -1; });
   throws([](SilhouetteVoteOptions& o) { o.min_votes = 0; });
   throws([](SilhouetteVoteOptions& o) { o.min_separation_m = -1; });
+  throws([](SilhouetteVoteOptions& o) { o.min_votes_each_side = -1; });
+  throws([](SilhouetteVoteOptions& o) { o.agree_radius_share = -0.1; });
+  throws([](SilhouetteVoteOptions& o) { o.agree_min_two_sided_views = -1; });
+}
+
+TEST(FitAgreesWithVotes, RadiusWithinItsShareCentreWithinTheRadiusBothSidesInViews) {
+  const SilhouetteVoteOptions o;
+  const Eigen::Vector2d c(6, 1);
+  EXPECT_TRUE(FitAgreesWithVotes(o, c, 0.1, c + Eigen::Vector2d(0.05, 0), 0.12, 3));
+  EXPECT_FALSE(FitAgreesWithVotes(o, c, 0.1, c, 0.13, 3));  // wider by over a fifth and 5 mm
+  EXPECT_FALSE(FitAgreesWithVotes(o, c, 0.1, c + Eigen::Vector2d(0.11, 0), 0.1, 3));
+  EXPECT_FALSE(FitAgreesWithVotes(o, c, 0.1, c, 0.1, 2));  // both sides in too few views
+  // A thin stem's centre may move a cell.
+  EXPECT_TRUE(FitAgreesWithVotes(o, c, 0.03, c + Eigen::Vector2d(0, 0.045), 0.03, 3));
+  SilhouetteVoteOptions off = o;
+  off.agree_min_two_sided_views = 0;
+  EXPECT_FALSE(FitAgreesWithVotes(off, c, 0.1, c, 0.1, 30));
 }
 
 TEST(VoteStemCentres, TangentRaysMeetAtTheStemsCentreAndRadius) {

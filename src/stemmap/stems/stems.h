@@ -185,6 +185,9 @@ struct Stem {
   // A denser core of a part no stem as a whole (StemOptions::split_mixed_parts_into_cores):
   // where it comes to nothing, the larger cloud's stems there are tried on their own.
   bool mixed_part_core = false;
+  // Where the silhouettes' votes alone gave it (VoteStemCentres): how many voted for it; 0 for
+  // the clouds' parts.
+  int silhouette_votes = 0;
   StemFlags flags;
   // The stems its denser cores make, when it splits into two or more on them (one alone when
   // the others are no stems).
