@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <utility>
 
 #include "stemmap/core/error.h"
 #include "stemmap/stems/silhouette.h"
@@ -261,6 +262,48 @@ int NeighbourAlong(const std::vector<AzimuthStrip>& strips, int k, int step, dou
   return -1;
 }
 
+// The silhouette an edge of keyframe k's strip makes, where its neighbours tell its sides apart:
+// each neighbour that tells them must tell the same, and the larger parallax places the surface
+// best.
+std::optional<SilhouetteRay> RayFromEdge(const SilhouetteVoteOptions& o,
+                                         const std::vector<AzimuthStrip>& strips, int k,
+                                         const std::array<int, 2>& neighbours, double edge,
+                                         double az_step) {
+  const AzimuthStrip& a = strips[k];
+  std::optional<SideVerdict> verdict;
+  int best_neighbour = -1;
+  for (const int j : neighbours) {
+    if (j < 0) continue;
+    const std::optional<SideVerdict> v = JudgeSides(o, a, strips[j], edge, az_step);
+    if (!v) continue;
+    if (verdict && verdict->nearer != v->nearer) return std::nullopt;
+    if (!verdict || std::abs(v->parallax_px) > std::abs(verdict->parallax_px)) {
+      verdict = v;
+      best_neighbour = j;
+    }
+  }
+  if (!verdict) return std::nullopt;
+  const double az = (static_cast<double>(a.first_index) + edge) * az_step;
+  const AzimuthStrip& b = strips[best_neighbour];
+  auto distance = [&](double parallax_px) {
+    return Triangulate(a.centre_xy, az, b.centre_xy, az + parallax_px * az_step);
+  };
+  const double p = verdict->parallax_px;
+  const double sign = p >= 0 ? 1.0 : -1.0;
+  const double d = distance(p);
+  if (!std::isfinite(d)) return std::nullopt;
+  SilhouetteRay r;
+  r.origin_xy = a.centre_xy;
+  r.azimuth_rad = az;
+  r.near_side = verdict->nearer;
+  r.distance_m = d;
+  r.min_distance_m = std::min(distance(p + sign * o.parallax_sd_px), d - o.min_vote_span_m);
+  const double far = std::abs(p) > o.parallax_sd_px ? distance(p - sign * o.parallax_sd_px)
+                                                    : std::numeric_limits<double>::infinity();
+  r.max_distance_m = std::max(far, d + o.min_vote_span_m);
+  return r;
+}
+
 // The unit normal of a silhouette's ray toward its nearer side.
 Eigen::Vector2d NearNormal(const SilhouetteRay& ray) {
   return ray.near_side * Eigen::Vector2d(-std::sin(ray.azimuth_rad), std::cos(ray.azimuth_rad));
@@ -362,43 +405,9 @@ std::vector<SilhouetteRay> FindSilhouetteRays(const SilhouetteVoteOptions& o,
     const std::array<int, 2> neighbours = {NeighbourAlong(strips, k, -1, o.neighbour_baseline_m),
                                            NeighbourAlong(strips, k, 1, o.neighbour_baseline_m)};
     for (const double edge : StripEdges(o, a)) {
-      const double az = (static_cast<double>(a.first_index) + edge) * az_step;
-      // Each neighbour that tells the sides apart must tell the same; the larger parallax
-      // places the surface best.
-      std::optional<SideVerdict> verdict;
-      int agreeing = 0;
-      bool conflict = false;
-      int best_neighbour = -1;
-      for (const int j : neighbours) {
-        if (j < 0) continue;
-        const std::optional<SideVerdict> v = JudgeSides(o, a, strips[j], edge, az_step);
-        if (!v) continue;
-        if (verdict && verdict->nearer != v->nearer) conflict = true;
-        if (!verdict || std::abs(v->parallax_px) > std::abs(verdict->parallax_px)) {
-          verdict = v;
-          best_neighbour = j;
-        }
-        ++agreeing;
+      if (const auto ray = RayFromEdge(o, strips, k, neighbours, edge, az_step)) {
+        per_view[k].push_back(*ray);
       }
-      if (!verdict || conflict || agreeing == 0) continue;
-      const AzimuthStrip& b = strips[best_neighbour];
-      auto distance = [&](double parallax_px) {
-        return Triangulate(a.centre_xy, az, b.centre_xy, az + parallax_px * az_step);
-      };
-      const double p = verdict->parallax_px;
-      const double sign = p >= 0 ? 1.0 : -1.0;
-      const double d = distance(p);
-      if (!std::isfinite(d)) continue;
-      SilhouetteRay r;
-      r.origin_xy = a.centre_xy;
-      r.azimuth_rad = az;
-      r.near_side = verdict->nearer;
-      r.distance_m = d;
-      r.min_distance_m = std::min(distance(p + sign * o.parallax_sd_px), d - o.min_vote_span_m);
-      const double far = std::abs(p) > o.parallax_sd_px ? distance(p - sign * o.parallax_sd_px)
-                                                        : std::numeric_limits<double>::infinity();
-      r.max_distance_m = std::max(far, d + o.min_vote_span_m);
-      per_view[k].push_back(r);
     }
   }
   std::vector<SilhouetteRay> rays;
@@ -406,78 +415,102 @@ std::vector<SilhouetteRay> FindSilhouetteRays(const SilhouetteVoteOptions& o,
   return rays;
 }
 
-std::vector<VoteCandidate> VoteStemCentres(const SilhouetteVoteOptions& o,
-                                           const std::vector<SilhouetteRay>& rays,
-                                           double search_radius_m) {
-  o.Check();
-  const double extent = search_radius_m + o.max_radius_m;
-  const int cells = static_cast<int>(std::ceil(2 * extent / o.cell_m));
-  const int radii =
-      static_cast<int>(std::floor((o.max_radius_m - o.min_radius_m) / o.radius_step_m)) + 1;
-  std::vector<uint16_t> votes(static_cast<size_t>(radii) * cells * cells, 0);
-  auto at = [&](int ri, int ix, int iy) -> uint16_t& {
-    return votes[(static_cast<size_t>(ri) * cells + iy) * cells + ix];
-  };
-  for (const SilhouetteRay& ray : rays) {
+namespace {
+
+// The votes for stem centres: a grid of the plot plane for each radius voted for.
+class VoteGrid {
+ public:
+  VoteGrid(const SilhouetteVoteOptions& o, double search_radius_m)
+      : o_(o),
+        extent_(search_radius_m + o.max_radius_m),
+        cells_(static_cast<int>(std::ceil(2 * extent_ / o.cell_m))),
+        radii_(static_cast<int>(std::floor((o.max_radius_m - o.min_radius_m) / o.radius_step_m)) +
+               1),
+        votes_(static_cast<size_t>(radii_) * cells_ * cells_, 0) {}
+
+  // The ray's line moved by each radius toward its nearer side, over the distances its parallax
+  // allows: one vote in each cell it crosses (one cell per step along its major axis).
+  void Add(const SilhouetteRay& ray) {
     const Eigen::Vector2d u(std::cos(ray.azimuth_rad), std::sin(ray.azimuth_rad));
-    const Eigen::Vector2d side = ray.near_side * Eigen::Vector2d(-u.y(), u.x());
+    const Eigen::Vector2d side = NearNormal(ray);
     const double t0 = std::max(ray.min_distance_m, 0.0);
-    const double t1 = std::min(ray.max_distance_m, 2 * extent);
-    if (!(t1 > t0)) continue;
-    // One cell per step along the line's major axis.
-    const double dt = o.cell_m / std::max(std::abs(u.x()), std::abs(u.y()));
+    const double t1 = std::min(ray.max_distance_m, 2 * extent_);
+    if (!(t1 > t0)) return;
+    const double dt = o_.cell_m / std::max(std::abs(u.x()), std::abs(u.y()));
     const int steps = static_cast<int>(std::ceil((t1 - t0) / dt)) + 1;
-    for (int ri = 0; ri < radii; ++ri) {
-      const double r = o.min_radius_m + ri * o.radius_step_m;
-      const Eigen::Vector2d start = ray.origin_xy + r * side;
+    for (int ri = 0; ri < radii_; ++ri) {
+      const Eigen::Vector2d start = ray.origin_xy + Radius(ri) * side;
       for (int i = 0; i < steps; ++i) {
         const Eigen::Vector2d q = start + (t0 + i * dt) * u;
-        const int ix = static_cast<int>(std::floor((q.x() + extent) / o.cell_m));
-        const int iy = static_cast<int>(std::floor((q.y() + extent) / o.cell_m));
-        if (ix < 0 || iy < 0 || ix >= cells || iy >= cells) continue;
-        uint16_t& v = at(ri, ix, iy);
+        const int ix = static_cast<int>(std::floor((q.x() + extent_) / o_.cell_m));
+        const int iy = static_cast<int>(std::floor((q.y() + extent_) / o_.cell_m));
+        if (ix < 0 || iy < 0 || ix >= cells_ || iy >= cells_) continue;
+        uint16_t& v = votes_[(static_cast<size_t>(ri) * cells_ + iy) * cells_ + ix];
         if (v < UINT16_MAX) ++v;
       }
     }
   }
-  struct Peak {
-    int votes;
-    size_t index;
-  };
-  std::vector<Peak> peaks;
-  for (size_t i = 0; i < votes.size(); ++i) {
-    if (votes[i] < o.min_votes) continue;
-    const int ix = static_cast<int>(i % cells), iy = static_cast<int>((i / cells) % cells);
-    const Eigen::Vector2d c(-extent + (ix + 0.5) * o.cell_m, -extent + (iy + 0.5) * o.cell_m);
-    if (c.norm() < o.min_range_m || c.norm() > search_radius_m) continue;
-    peaks.push_back({votes[i], i});
+
+  // Cells with at least min_votes between min_range_m and search_radius_m of the plot centre,
+  // most votes first (ties in the grid's order), at most max_peaks.
+  std::vector<VoteCandidate> Peaks(double search_radius_m, size_t max_peaks) const {
+    std::vector<std::pair<int, size_t>> cells;  // votes, index
+    for (size_t i = 0; i < votes_.size(); ++i) {
+      if (votes_[i] < o_.min_votes) continue;
+      const double range = Centre(i).norm();
+      if (range >= o_.min_range_m && range <= search_radius_m) cells.emplace_back(votes_[i], i);
+    }
+    std::ranges::sort(cells, [](const auto& a, const auto& b) {
+      return a.first != b.first ? a.first > b.first : a.second < b.second;
+    });
+    std::vector<VoteCandidate> peaks;
+    for (const auto& [votes, index] : cells) {
+      VoteCandidate c{Centre(index), Radius(static_cast<int>(index / Layer())), votes};
+      if (FarFromAll(peaks, c, o_.min_separation_m)) peaks.push_back(c);
+      if (peaks.size() >= max_peaks) break;
+    }
+    return peaks;
   }
-  std::ranges::sort(peaks, [](const Peak& a, const Peak& b) {
-    return a.votes != b.votes ? a.votes > b.votes : a.index < b.index;
-  });
+
+  // Whether c stands at least min_separation_m from every one of `others`.
+  static bool FarFromAll(const std::vector<VoteCandidate>& others, const VoteCandidate& c,
+                         double min_separation_m) {
+    return std::ranges::none_of(others, [&](const VoteCandidate& k) {
+      return (k.centre_xy - c.centre_xy).norm() < min_separation_m;
+    });
+  }
+
+ private:
+  size_t Layer() const { return static_cast<size_t>(cells_) * cells_; }
+  double Radius(int ri) const { return o_.min_radius_m + ri * o_.radius_step_m; }
+  Eigen::Vector2d Centre(size_t index) const {
+    const size_t in_layer = index % Layer();
+    const int ix = static_cast<int>(in_layer % cells_), iy = static_cast<int>(in_layer / cells_);
+    return {-extent_ + (ix + 0.5) * o_.cell_m, -extent_ + (iy + 0.5) * o_.cell_m};
+  }
+
+  const SilhouetteVoteOptions& o_;
+  double extent_;
+  int cells_, radii_;
+  std::vector<uint16_t> votes_;
+};
+
+}  // namespace
+
+std::vector<VoteCandidate> VoteStemCentres(const SilhouetteVoteOptions& o,
+                                           const std::vector<SilhouetteRay>& rays,
+                                           double search_radius_m) {
+  o.Check();
+  VoteGrid grid(o, search_radius_m);
+  for (const SilhouetteRay& ray : rays) grid.Add(ray);
   // Enough for every stem of a dense plot and the ridges its silhouettes leave along the line of
   // sight; the caller takes the listed stems away and keeps max_candidates.
   constexpr size_t kMaxPeaks = 1000;
-  std::vector<VoteCandidate> found;
-  for (const Peak& p : peaks) {
-    const int ix = static_cast<int>(p.index % cells);
-    const int iy = static_cast<int>((p.index / cells) % cells);
-    const int ri = static_cast<int>(p.index / (static_cast<size_t>(cells) * cells));
-    VoteCandidate c;
-    c.centre_xy = {-extent + (ix + 0.5) * o.cell_m, -extent + (iy + 0.5) * o.cell_m};
-    c.radius_m = o.min_radius_m + ri * o.radius_step_m;
-    c.votes = p.votes;
-    const bool near = std::ranges::any_of(found, [&](const VoteCandidate& f) {
-      return (f.centre_xy - c.centre_xy).norm() < o.min_separation_m;
-    });
-    if (!near) found.push_back(c);
-    if (found.size() >= kMaxPeaks) break;
-  }
   // Refined, each stands on the silhouettes that vote where it ends up, on both of its sides
   // (a stem's silhouettes from one side alone pile up along their common direction at any
   // radius); most votes first, one of any two that end up within min_separation_m.
   std::vector<VoteCandidate> refined;
-  for (VoteCandidate c : found) {
+  for (VoteCandidate c : grid.Peaks(search_radius_m, kMaxPeaks)) {
     RefineCandidate(o, rays, &c);
     if (c.centre_xy.norm() < o.min_range_m || c.centre_xy.norm() > search_radius_m) continue;
     std::array<int, 2> sides = {0, 0};
@@ -492,10 +525,7 @@ std::vector<VoteCandidate> VoteStemCentres(const SilhouetteVoteOptions& o,
       refined, [](const VoteCandidate& a, const VoteCandidate& b) { return a.votes > b.votes; });
   std::vector<VoteCandidate> kept;
   for (const VoteCandidate& c : refined) {
-    const bool near = std::ranges::any_of(kept, [&](const VoteCandidate& k) {
-      return (k.centre_xy - c.centre_xy).norm() < o.min_separation_m;
-    });
-    if (!near) kept.push_back(c);
+    if (VoteGrid::FarFromAll(kept, c, o.min_separation_m)) kept.push_back(c);
   }
   return kept;
 }
