@@ -54,6 +54,35 @@ bool BrightnessEdge(const TangentOptions& o, const std::vector<double>& row, int
   return true;
 }
 
+// Where the texture profile, from the edge at `x` outward (dir), first falls below `level` for
+// `run` columns on end, when that lies over a column beyond `x` (the texture goes on past it);
+// the crossing interpolated.
+bool TextureEndsBeyond(const std::vector<double>& texture, double x, int dir, double level, int run,
+                       double* x_end) {
+  const int n = static_cast<int>(texture.size());
+  const int start = static_cast<int>(std::lround(x));
+  if (start < 0 || start >= n) return false;
+  std::vector<double> falling(n);  // rises where the texture falls, for FirstSustainedCrossing
+  for (int i = 0; i < n; ++i) falling[i] = -texture[i];
+  double crossing;
+  if (!FirstSustainedCrossing(falling, start, dir, -level, run, &crossing)) return false;
+  if (dir * (crossing - x) <= 1.5) return false;
+  *x_end = crossing;
+  return true;
+}
+
+// Whether the columns between `a` and `b` disagree with the neighbours, carried through the
+// stem's surface, no more than `level` on average: bark of this stem, not of one behind it.
+bool LinesUpLikeTheStem(const std::vector<double>& disagreement, double a, double b, double level) {
+  const int n = static_cast<int>(disagreement.size());
+  const int lo = std::max(0, static_cast<int>(std::lround(std::min(a, b))));
+  const int hi = std::min(n - 1, static_cast<int>(std::lround(std::max(a, b))));
+  if (hi < lo) return false;
+  double sum = 0;
+  for (int i = lo; i <= hi; ++i) sum += disagreement[i];
+  return sum / (hi - lo + 1) <= level;
+}
+
 }  // namespace
 
 std::pair<int, double> NearDepthSteps(const TangentOptions& o, double baseline_px, double dist_m) {
@@ -213,6 +242,16 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   for (int y = y_begin; y <= y_end; ++y) {
     for (int x = x_begin; x <= x_end; ++x) row[x - x_begin] += img.at<uchar>(y, x);
   }
+  // Texture per column: the mean change down the rows (grey levels). Bark has it; a plain sky or
+  // haze has none, and a silhouette, a sunlit side's border or the shading across a stem, all
+  // vertical, add none.
+  std::vector<double> texture(width, 0.0);
+  for (int y = y_begin; y <= y_end; ++y) {
+    for (int x = x_begin; x <= x_end; ++x) {
+      texture[x - x_begin] += std::abs(img.at<uchar>(y + 1, x) - img.at<uchar>(y - 1, x));
+    }
+  }
+  for (double& t : texture) t /= y_end - y_begin + 1;
   auto refine = [&](double x0) {
     // Strongest brightness step within 1.5 px of the depth edge; parabola through its peak.
     const int i0 = static_cast<int>(std::lround(x0 - x_begin));
@@ -256,6 +295,7 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
       }
     }
     if (outside.size() < 3 || inside.empty()) return false;
+    const int run_px = std::clamp(static_cast<int>(0.05 * (xr - xl)), 3, 10);
     const double stem = Median(inside);
     const double bg = Median(outside);
     bool found = false;
@@ -266,11 +306,31 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
       // sunlit side can be brighter than the background while the stem's middle is darker.
       found = BrightnessEdge(o, row, rows, Median(row_inside) / rows, Median(row_beyond) / rows,
                              dir, x_pred, std::max(3.0, 0.2 * (xr - xl)), &x);
+      // A sunlit side as bright as the background leaves its border with the shaded middle the
+      // strongest step: where the bark's texture goes on beyond the step and lines up there as
+      // the stem's middle does (clearly, itself), the silhouette is where the texture ends.
+      if (found && o.plain_background_texture_ratio > 0) {
+        // A few columns without texture end the stem: the gap before a stem behind it.
+        constexpr int kTextureGapPx = 3;
+        std::vector<double> tex_inside, tex_outside;
+        for (int i = 0; i < width; ++i) {
+          if (std::abs(i - xm) < 0.25 * (hi - lo)) tex_inside.push_back(texture[i]);
+          if (dir * (i - outer) < 0 && dir * (i - x) > run_px) tex_outside.push_back(texture[i]);
+        }
+        const double tex_stem = Median(tex_inside), tex_bg = Median(tex_outside);
+        double x_end;
+        if (tex_outside.size() >= 3 && tex_stem >= o.min_bark_texture &&
+            tex_bg < o.min_bark_texture && tex_stem >= o.plain_background_texture_ratio * tex_bg &&
+            TextureEndsBeyond(texture, x, dir, 0.5 * (tex_stem + tex_bg), kTextureGapPx, &x_end) &&
+            stem <= o.min_contrast &&
+            LinesUpLikeTheStem(smooth, x, x_end, stem + 0.5 * o.min_contrast)) {
+          x = x_end;
+        }
+      }
       if (found) x += x_begin;
     } else {
-      const int run = std::clamp(static_cast<int>(0.05 * (xr - xl)), 3, 10);
       found = FirstSustainedCrossing(smooth, static_cast<int>(std::lround(xm)), dir,
-                                     0.5 * (stem + bg), run, &x);
+                                     0.5 * (stem + bg), run_px, &x);
       if (found) {
         x += x_begin;
         if (o.refine_on_brightness) x = refine(x);

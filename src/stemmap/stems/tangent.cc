@@ -35,6 +35,12 @@ void TangentOptions::Check() const {
   if (!(min_contrast >= 0 && min_brightness_contrast >= 0)) {
     throw InputError("the silhouettes' contrasts must not be negative");
   }
+  if (!(plain_background_texture_ratio == 0 || plain_background_texture_ratio >= 1) ||
+      !(min_bark_texture >= 0)) {
+    throw InputError(
+        "the stem's texture over a plain background's must be at least 1 (or 0: off), and the "
+        "bark's texture not negative");
+  }
   if (!(huber_m > 0 && prior_share_of_distance > 0 && min_rays >= 3)) {
     throw InputError("the tangent fit needs a positive robust scale and prior, and 3 rays");
   }

@@ -49,7 +49,15 @@ struct TangentOptions {
   double min_contrast = 6.0;  // grey levels between stem and background disagreement
   // Below that, the brightness step between stem and background, if at least this (grey levels).
   double min_brightness_contrast = 12.0;
-  double huber_m = 0.004;  // robust scale of the ray residuals
+  // There, a brightness step is the silhouette only where the bark's texture (mean change down
+  // the rows, grey levels) ends at it: where the stem's middle lines up and has at least this
+  // many times the background's texture, and it goes on beyond the step lining up as well, the
+  // silhouette is where it ends (a sunlit side as bright as a hazy sky). 0 (the default): the
+  // step alone; on the simulator's plots, 2 also carried edges onto a stem standing just behind
+  // (docs/benchmarks.md, "Tried and not kept").
+  double plain_background_texture_ratio = 0.0;
+  double min_bark_texture = 1.0;  // the stem's middle's texture that may show it (grey levels)
+  double huber_m = 0.004;         // robust scale of the ray residuals
   // The starting centre (from the cloud) as a prior of this share of the stem's distance.
   double prior_share_of_distance = 0.05;
   int min_rays = 8;
@@ -175,13 +183,14 @@ struct TangentOptions {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     TangentOptions, background_parallax_px, max_neighbour_offset, near_depth_steps,
     near_depth_step_px, rows_half, band_half_height_m, max_bands_each_side, search_px, search_share,
-    min_contrast, min_brightness_contrast, huber_m, prior_share_of_distance, min_rays,
-    max_sideways_m, max_move_m, max_move_prior_sigmas, occluder_min_gap_m, refits,
-    wide_start_scales, recheck_wider_scale, recheck_min_gain, recheck_rms_slack_px,
-    narrow_start_scales, narrow_max_rms_px, narrow_min_share, on_bark_max_rms_px, recheck_rim,
-    rim_min_share, tighter_rms_share, sideways_start_shifts, pooled_min_extra_rays,
-    few_views_min_two_sided, few_views_min_share, settle_few_views, settle_min_change_share,
-    min_views_each_side, face_sigma_m, face_start_growth, refine_on_brightness, blur_sigma_px)
+    min_contrast, min_brightness_contrast, plain_background_texture_ratio, min_bark_texture,
+    huber_m, prior_share_of_distance, min_rays, max_sideways_m, max_move_m, max_move_prior_sigmas,
+    occluder_min_gap_m, refits, wide_start_scales, recheck_wider_scale, recheck_min_gain,
+    recheck_rms_slack_px, narrow_start_scales, narrow_max_rms_px, narrow_min_share,
+    on_bark_max_rms_px, recheck_rim, rim_min_share, tighter_rms_share, sideways_start_shifts,
+    pooled_min_extra_rays, few_views_min_two_sided, few_views_min_share, settle_few_views,
+    settle_min_change_share, min_views_each_side, face_sigma_m, face_start_growth,
+    refine_on_brightness, blur_sigma_px)
 
 struct TangentViews {
   const PinholeCamera* camera = nullptr;                // of the images

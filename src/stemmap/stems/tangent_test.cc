@@ -418,6 +418,40 @@ TEST(Tangent, FitsASunlitStemAgainstAPlainSky) {
   EXPECT_GT(fit.two_sided_views, 10);
 }
 
+// A sunlit side as bright as a plain hazy sky, the stem's middle darker: with the texture rule on
+// (TangentOptions::plain_background_texture_ratio), the fall from the lit side to the shaded
+// middle is no silhouette (the bark's texture goes on beyond it), whatever the sky's level and
+// the stem's size and distance, from a start inside the stem.
+TEST(Tangent, FitsASunlitStemAgainstASkyAsBrightAsItsLitSideByItsTexture) {
+  TangentOptions o = TangentOptions().ForImageScale(640.0 / 960.0);
+  o.plain_background_texture_ratio = 2.0;
+  int thin_without_texture = 0;
+  for (double sky : {190.0, 200.0, 210.0}) {
+    for (const auto& [distance, radius] : {std::pair{4.0, 0.12}, {6.0, 0.15}, {8.0, 0.2}}) {
+      const Eigen::Vector2d centre(distance, 0.3);
+      const RenderedStem scene =
+          RenderStems({{centre.x(), centre.y(), radius}}, false, true, Texture::kIrregular,
+                      PinholeCamera::FromHfov(640, 360, 67.0), {}, sky);
+      const TangentViews views{&scene.camera, &scene.keyframes, &scene.gray};
+      const TangentFit fit =
+          FitTangentRays(o, views, centre * (1.0 + 0.3 / centre.norm()), 0.85 * radius, 1.37);
+      SCOPED_TRACE(testing::Message()
+                   << "sky " << sky << ", stem r " << radius << " at " << distance << " m");
+      ASSERT_TRUE(fit.ok);
+      EXPECT_NEAR(fit.radius_m, radius, 0.04 * radius);
+      EXPECT_LT((fit.centre - centre).norm(), 0.4 * radius);
+      TangentOptions step_alone = o;
+      step_alone.plain_background_texture_ratio = 0;
+      const TangentFit on_step = FitTangentRays(
+          step_alone, views, centre * (1.0 + 0.3 / centre.norm()), 0.85 * radius, 1.37);
+      thin_without_texture += !on_step.ok || on_step.radius_m < 0.92 * radius;
+    }
+  }
+  // The brightness step alone closes on the lit side's border (8 % thin or more) in a third
+  // of these scenes.
+  EXPECT_GE(thin_without_texture, 3);
+}
+
 // A nearer stem beside the measured one from most views: told where it stands, the fit leaves
 // out the silhouette sides next to it.
 TEST(Tangent, LeavesOutSidesBesideANearerStem) {

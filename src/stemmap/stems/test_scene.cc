@@ -40,7 +40,7 @@ double HitLeafClump(const LeafClump& clump, const Eigen::Vector3d& origin,
 
 RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
                          bool sunlit, Texture texture, const PinholeCamera& camera,
-                         const std::vector<LeafClump>& clumps) {
+                         const std::vector<LeafClump>& clumps, double sky_luma) {
   RenderedStem r;
   r.camera = camera;
   const ValueNoise noise(7);
@@ -55,7 +55,7 @@ RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool texture
       for (int x = 0; x < img.cols; ++x) {
         const Eigen::Vector3d ray = world_from_cam.rotation * r.camera.CamRayFromImage({x, y});
         const Eigen::Vector2d u = ray.head<2>();
-        double luma = sunlit ? 130 : 210, nearest = 1e9;  // sky
+        double luma = sky_luma >= 0 ? sky_luma : (sunlit ? 130 : 210), nearest = 1e9;  // sky
         for (size_t i = 0; i < stems.size(); ++i) {
           const Eigen::Vector2d q = world_from_cam.translation.head<2>() - stems[i].head<2>();
           const double a = u.squaredNorm(), b = q.dot(u),

@@ -47,9 +47,11 @@ double HitLeafClump(const LeafClump& clump, const Eigen::Vector3d& origin,
 // 960 px wide, the size the silhouette options are set for).
 // `clumps`: leaf clumps, seen where they lie nearer than the stems, dark green leaves of varying
 // shade.
+// `sky_luma`: the plain sky's grey level where it is not the default (130 sunlit, 210 otherwise),
+// e.g. a hazy sky as bright as a sunlit side.
 RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool textured_background,
                          bool sunlit = false, Texture texture = Texture::kRegular,
                          const PinholeCamera& camera = PinholeCamera::FromHfov(640, 360, 67.0),
-                         const std::vector<LeafClump>& clumps = {});
+                         const std::vector<LeafClump>& clumps = {}, double sky_luma = -1.0);
 
 }  // namespace stemmap::stems
