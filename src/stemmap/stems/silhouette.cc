@@ -242,16 +242,21 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   for (int y = y_begin; y <= y_end; ++y) {
     for (int x = x_begin; x <= x_end; ++x) row[x - x_begin] += img.at<uchar>(y, x);
   }
-  // Texture per column: the mean change down the rows (grey levels). Bark has it; a plain sky or
-  // haze has none, and a silhouette, a sunlit side's border or the shading across a stem, all
-  // vertical, add none.
-  std::vector<double> texture(width, 0.0);
-  for (int y = y_begin; y <= y_end; ++y) {
-    for (int x = x_begin; x <= x_end; ++x) {
-      texture[x - x_begin] += std::abs(img.at<uchar>(y + 1, x) - img.at<uchar>(y - 1, x));
+  // Texture per column, where the texture rule asks for it (plain_background_texture_ratio):
+  // the mean change down the rows (grey levels). Bark has it; a plain sky or haze has none, and a
+  // silhouette, a sunlit side's border or the shading across a stem, all vertical, add none.
+  std::vector<double> texture;
+  auto texture_profile = [&]() -> const std::vector<double>& {
+    if (!texture.empty()) return texture;
+    texture.assign(width, 0.0);
+    for (int y = y_begin; y <= y_end; ++y) {
+      for (int x = x_begin; x <= x_end; ++x) {
+        texture[x - x_begin] += std::abs(img.at<uchar>(y + 1, x) - img.at<uchar>(y - 1, x));
+      }
     }
-  }
-  for (double& t : texture) t /= y_end - y_begin + 1;
+    for (double& t : texture) t /= y_end - y_begin + 1;
+    return texture;
+  };
   auto refine = [&](double x0) {
     // Strongest brightness step within 1.5 px of the depth edge; parabola through its peak.
     const int i0 = static_cast<int>(std::lround(x0 - x_begin));
@@ -312,16 +317,19 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
       if (found && o.plain_background_texture_ratio > 0) {
         // A few columns without texture end the stem: the gap before a stem behind it.
         constexpr int kTextureGapPx = 3;
+        const std::vector<double>& column_texture = texture_profile();
         std::vector<double> tex_inside, tex_outside;
         for (int i = 0; i < width; ++i) {
-          if (std::abs(i - xm) < 0.25 * (hi - lo)) tex_inside.push_back(texture[i]);
-          if (dir * (i - outer) < 0 && dir * (i - x) > run_px) tex_outside.push_back(texture[i]);
+          if (std::abs(i - xm) < 0.25 * (hi - lo)) tex_inside.push_back(column_texture[i]);
+          if (dir * (i - outer) < 0 && dir * (i - x) > run_px)
+            tex_outside.push_back(column_texture[i]);
         }
         const double tex_stem = Median(tex_inside), tex_bg = Median(tex_outside);
         double x_end;
         if (tex_outside.size() >= 3 && tex_stem >= o.min_bark_texture &&
             tex_bg < o.min_bark_texture && tex_stem >= o.plain_background_texture_ratio * tex_bg &&
-            TextureEndsBeyond(texture, x, dir, 0.5 * (tex_stem + tex_bg), kTextureGapPx, &x_end) &&
+            TextureEndsBeyond(column_texture, x, dir, 0.5 * (tex_stem + tex_bg), kTextureGapPx,
+                              &x_end) &&
             stem <= o.min_contrast &&
             LinesUpLikeTheStem(smooth, x, x_end, stem + 0.5 * o.min_contrast)) {
           x = x_end;
