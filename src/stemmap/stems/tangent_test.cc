@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "stemmap/camera/camera.h"
+#include "stemmap/core/error.h"
 #include "stemmap/core/pose.h"
 #include "stemmap/core/rng.h"
 #include "stemmap/stems/bark_depth.h"
@@ -416,6 +417,23 @@ TEST(Tangent, FitsASunlitStemAgainstAPlainSky) {
   EXPECT_NEAR(fit.radius_m, radius, 0.006);
   EXPECT_LT((fit.centre - centre).norm(), 0.06);
   EXPECT_GT(fit.two_sided_views, 10);
+}
+
+// The texture rule's ratio is off (0) or at least 1; the bark's texture is not negative.
+TEST(TangentOptions, ChecksTheTextureRule) {
+  TangentOptions o;
+  EXPECT_NO_THROW(o.Check());
+  for (double ratio : {0.0, 1.0, 2.0}) {
+    o.plain_background_texture_ratio = ratio;
+    EXPECT_NO_THROW(o.Check()) << ratio;
+  }
+  for (double ratio : {-1.0, 0.5}) {
+    o.plain_background_texture_ratio = ratio;
+    EXPECT_THROW(o.Check(), InputError) << ratio;
+  }
+  o.plain_background_texture_ratio = 2.0;
+  o.min_bark_texture = -0.1;
+  EXPECT_THROW(o.Check(), InputError);
 }
 
 // A sunlit side as bright as a plain hazy sky, the stem's middle darker: with the texture rule on
