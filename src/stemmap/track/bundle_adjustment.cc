@@ -20,6 +20,12 @@ void BundleOptions::Check() const {
   if (!(sigma_radius_m > 0 && sigma_height_m > 0 && sigma_mount_deg > 0 && loss_px > 0)) {
     throw InputError("bundle adjustment sigmas must be positive");
   }
+  if (!(outlier_px > 0 && max_track_rms_px >= 0)) {
+    throw InputError(fmt::format(
+        "the outlier threshold {} px must be positive and the tracks' rms threshold {} px at "
+        "least 0",
+        outlier_px, max_track_rms_px));
+  }
   if (min_observations < 2) throw InputError("points need at least 2 observations");
   if (max_iterations < 1) throw InputError("bundle adjustment needs at least 1 iteration");
   if (!(min_lens_scale >= 0 && min_lens_scale < 1)) {
@@ -36,9 +42,11 @@ void BundleOptions::Check() const {
 }
 
 std::string BundleSummary::BriefReport() const {
-  return fmt::format("{} points, {} observations ({} rejected), rms {:.2f} -> {:.2f} px, {} it{}",
-                     points, observations, rejected_observations, initial_rms_px, final_rms_px,
-                     iterations, converged ? "" : " (not converged)");
+  return fmt::format(
+      "{} points, {} observations ({} rejected, {} points whose tracks move), rms {:.2f} -> "
+      "{:.2f} px, {} it{}",
+      points, observations, rejected_observations, rejected_points, initial_rms_px, final_rms_px,
+      iterations, converged ? "" : " (not converged)");
 }
 
 Eigen::Quaterniond NominalArmFromCam() {
@@ -316,10 +324,11 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
   s.converged = summary.termination_type == ceres::CONVERGENCE;
   spdlog::debug("bundle adjustment: {}", summary.BriefReport());
 
-  // Drop what the solution cannot explain.
+  // Drop what the solution cannot explain: single observations, and tracks that move.
   std::vector<double> errors_px;
   for (int t : ids) {
     int good = 0;
+    double good_sq_px = 0.0;
     for (size_t k = 0; k < tracks[t].obs.size(); ++k) {
       if (!map->obs_valid[t][k]) continue;
       const double e = ReprojectionErrorPx(*map, camera, tracks[t].obs[k].keyframe,
@@ -330,9 +339,17 @@ BundleSummary RunBundleAdjustment(const BundleOptions& o, const std::vector<Trac
         ++s.rejected_observations;
       } else {
         ++good;
+        good_sq_px += e * e;
       }
     }
-    if (good < 2) map->point_valid[t] = 0;
+    const bool moves = o.max_track_rms_px > 0.0 && good > 0 &&
+                       good_sq_px > good * o.max_track_rms_px * o.max_track_rms_px;
+    if (moves) {
+      // Its observations go too, so that no later round triangulates it again.
+      std::fill(map->obs_valid[t].begin(), map->obs_valid[t].end(), 0);
+      ++s.rejected_points;
+    }
+    if (good < 2 || moves) map->point_valid[t] = 0;
   }
   s.final_rms_px = RmsPx(tracks, ids, camera, *map, nullptr);
   if (!errors_px.empty()) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <functional>
 #include <limits>
 #include <optional>
@@ -13,6 +14,14 @@
 namespace stemmap::track {
 namespace {
 
+// Leaves that flutter: points between `min_r_m` and `max_r_m` from the axis, below `top_m` (axis
+// frame), sit `amplitude_m` to one side of their place and then the other, keyframe by keyframe,
+// across the line of sight. None by default.
+struct RigSway {
+  double amplitude_m = 0.0;
+  double min_r_m = 0.0, max_r_m = 0.0, top_m = 0.0;
+};
+
 // A known world: cameras on a 1 m arm turning 1.1 times, a mount a little off nominal, points
 // scattered 3-15 m from the axis; tracks are their noisy projections. Where `focal_scale_at` is
 // given, each keyframe's focal length is that many times the camera's at its arm angle (rad), as
@@ -23,9 +32,12 @@ struct SyntheticRig {
   std::vector<Track> tracks;
   std::vector<double> phi;
 
+  std::vector<char> sways;  // per track
+
   explicit SyntheticRig(uint64_t seed,
                         const std::function<double(double)>& focal_scale_at = nullptr,
-                        const PinholeCamera& lens = PinholeCamera::FromHfov(640, 360, 67.0))
+                        const PinholeCamera& lens = PinholeCamera::FromHfov(640, 360, 67.0),
+                        const RigSway& sway = {})
       : camera(lens) {
     Rng rng(seed);
     const int n_kf = 80;
@@ -48,9 +60,14 @@ struct SyntheticRig {
     for (int i = 0; i < 2500; ++i) {
       const double a = rng.Uniform(0, 2 * M_PI), r = rng.Uniform(3, 15);
       const Eigen::Vector3d x(r * std::cos(a), r * std::sin(a), rng.Uniform(-1.3, 2.0));
+      const bool moves =
+          sway.amplitude_m > 0.0 && r >= sway.min_r_m && r < sway.max_r_m && x.z() < sway.top_m;
+      const Eigen::Vector3d across(-std::sin(a), std::cos(a), 0.0);
       Track t;
       for (int k = 0; k < n_kf; ++k) {
-        const Eigen::Vector3d p = truth.cam_from_world[k] * (x - truth.centre_world[k]);
+        const Eigen::Vector3d at =
+            moves ? (x + (k % 2 ? 1.0 : -1.0) * sway.amplitude_m * across).eval() : x;
+        const Eigen::Vector3d p = truth.cam_from_world[k] * (at - truth.centre_world[k]);
         if (p.z() < 0.5) continue;
         const Eigen::Vector2d centre(camera.cx, camera.cy);
         const Eigen::Vector2d px =
@@ -64,6 +81,7 @@ struct SyntheticRig {
       if (t.obs.size() >= 3) {
         tracks.push_back(t);
         truth.point_world.push_back(x);
+        sways.push_back(moves);
       }
     }
   }
@@ -243,6 +261,43 @@ TEST(BundleAdjustment, TheFocalLengthIsNotPulledByTheLeastSureEdgesOfAWideLens) 
   EXPECT_LT(without, 0.001);
 }
 
+// Leaves that flutter by about a pixel either way stay under the outlier threshold in most
+// keyframes, so their observations stay; their tracks' rms error gives them away, and they go
+// whole while the still points stay.
+TEST(BundleAdjustment, DropsTheTracksOfPointsThatMove) {
+  RigSway flutter;
+  flutter.amplitude_m = 0.008;  // 0.6 px at 7 m (f 484 px), 0.4 px at 10 m
+  flutter.min_r_m = 6.0;
+  flutter.max_r_m = 10.0;
+  flutter.top_m = 0.5;
+  const SyntheticRig rig(21, nullptr, PinholeCamera::FromHfov(640, 360, 67.0), flutter);
+  BundleOptions o;
+  o.max_points = 3000;
+  o.refine_focal = true;
+  std::vector<int> moving_kept, still_kept;
+  for (double max_track_rms_px : {0.0, o.max_track_rms_px}) {
+    BundleOptions later_rounds = o;
+    later_rounds.max_track_rms_px = max_track_rms_px;
+    SparseMap map;
+    PlaceOnCircle(rig.phi, 1.0, &map);
+    for (int round = 0; round < 3; ++round) {
+      TriangulateTracks(o, rig.tracks, rig.camera, &map);
+      RunBundleAdjustment(round == 0 ? o : later_rounds, rig.tracks, rig.camera, &map);
+    }
+    moving_kept.push_back(0);
+    still_kept.push_back(0);
+    for (size_t t = 0; t < rig.tracks.size(); ++t) {
+      (rig.sways[t] ? moving_kept : still_kept).back() += map.point_valid[t] ? 1 : 0;
+    }
+  }
+  const int moving = static_cast<int>(std::count(rig.sways.begin(), rig.sways.end(), 1));
+  const int still = static_cast<int>(rig.tracks.size()) - moving;
+  ASSERT_GT(moving, 300);
+  EXPECT_GT(moving_kept[0], moving / 4);  // the outlier threshold alone keeps many
+  EXPECT_LT(moving_kept[1], moving_kept[0] / 2);
+  for (int kept : still_kept) EXPECT_GT(kept, 0.995 * still);
+}
+
 TEST(BundleAdjustment, RejectsBadOptions) {
   BundleOptions o;
   o.arm_radius_m = 0.0;
@@ -264,6 +319,11 @@ TEST(BundleAdjustment, RejectsBadOptions) {
     BundleOptions t;
     t.min_lens_scale = scale;
     EXPECT_THROW(t.Check(), InputError) << scale;
+  }
+  for (double rms_px : {-0.1, std::numeric_limits<double>::quiet_NaN()}) {
+    BundleOptions t;
+    t.max_track_rms_px = rms_px;
+    EXPECT_THROW(t.Check(), InputError) << rms_px;
   }
   BundleOptions no_iterations;
   no_iterations.max_iterations = 0;

@@ -284,6 +284,7 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
     if (round + 1 < o.bundle_rounds) {
       round_options.function_tolerance = bo.early_round_function_tolerance;
     }
+    if (round == 0) round_options.max_track_rms_px = 0.0;  // the poses are the guesses still
     bs = RunBundleAdjustment(round_options, f.tracks, r.camera, &map);
     spdlog::info("track: bundle adjustment {}/{}: {} (+{} points)", round + 1, o.bundle_rounds,
                  bs.BriefReport(), made);
