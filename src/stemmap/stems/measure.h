@@ -42,6 +42,12 @@ struct MeasureOptions {
   // Drop cloud clusters whose silhouettes cannot be found in any view (a trunk shows two edges,
   // a leaf clump rarely does); false keeps them, flagged no_silhouette.
   bool require_silhouette = true;
+  // Whether a part of the cloud that came to nothing (no stem kept, no leafy outline) still
+  // hides farther stems from their edge searches, at its cloud's circle. Off: its silhouettes were
+  // searched and not found, so nothing with an outline stands there; such parts are mostly depth
+  // smear, points strewn along the line of sight in front of a farther stem, whose circle would
+  // cover that stem's sides in every view and leave it no silhouettes at all.
+  bool unfitted_parts_hide = false;
   // Unless the fit failed only on the bark (BarkConfirmsCloud): a stem standing in front of a
   // wider one shows its silhouettes against that one's bark, and a fit to them can settle on the
   // stem behind, where the bark does not line up; the part's own circle, where it does, stays.
@@ -173,15 +179,15 @@ struct MeasureOptions {
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     MeasureOptions, stems, tangent, bark_depth, votes, min_dbh_cm, sapling_outline_max_dbh_cm,
-    ground, uncertainty, require_silhouette, keep_bark_confirmed_cloud, one_sided_max_over_cloud,
-    one_sided_min_cloud_radius_m, min_core_share, narrow_fit_share, min_bark_gap_m,
-    larger_cloud_part_gap_m, larger_cloud_only_max_rms_px, larger_cloud_whole_where_open,
-    wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px, tight_fit_rms_px, min_judged_px_m,
-    loose_wider_max_over_cloud, narrower_on_bark_two_sided_share, outline_over_bark_two_sided_share,
-    outline_over_bark_rms_px, outline_over_bark_cloud_share, weak_on_bark_max_rms_px,
-    leafy_edge_scatter_m, leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views,
-    one_side_past_nearer_min_views, hidden_side_min_gain, hidden_side_stand_min_stems,
-    hidden_side_min_seen_share)
+    ground, uncertainty, require_silhouette, unfitted_parts_hide, keep_bark_confirmed_cloud,
+    one_sided_max_over_cloud, one_sided_min_cloud_radius_m, min_core_share, narrow_fit_share,
+    min_bark_gap_m, larger_cloud_part_gap_m, larger_cloud_only_max_rms_px,
+    larger_cloud_whole_where_open, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
+    tight_fit_rms_px, min_judged_px_m, loose_wider_max_over_cloud, narrower_on_bark_two_sided_share,
+    outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share,
+    weak_on_bark_max_rms_px, leafy_edge_scatter_m, leafy_edge_scatter_px, leafy_edge_share,
+    sides_past_nearer_min_views, one_side_past_nearer_min_views, hidden_side_min_gain,
+    hidden_side_stand_min_stems, hidden_side_min_seen_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

@@ -200,13 +200,20 @@ bool BehindLeaves(const std::vector<LeafClump>& clumps, const Eigen::Vector3d& f
 
 // Stems (x, y, radius) and the leaf clumps (saplings' crowns) among them. `seen_half_arc_rad`:
 // for the first stems, how far each side of the middle of the face a keyframe sees its stereo
-// gives points (1.3 rad where not given; less: the cloud saw a sliver of it).
-Scene MakeScene(const std::vector<Eigen::Vector3d>& stems,
+// gives points (1.3 rad where not given; less: the cloud saw a sliver of it; negative: none, its
+// points all smeared elsewhere). `smear`: circles
+// the cloud has points on, as on a stem's face, though nothing stands there (stereo's smear of
+// a farther stem toward the camera): in the cloud, hiding the points behind them, and not in the
+// pictures.
+Scene MakeScene(const std::vector<Eigen::Vector3d>& rendered_stems,
                 const std::vector<LeafClump>& clumps = {},
-                const std::vector<double>& seen_half_arc_rad = {}) {
+                const std::vector<double>& seen_half_arc_rad = {},
+                const std::vector<Eigen::Vector3d>& smear = {}) {
   Scene s;
-  s.rendered = RenderStems(stems, /*textured_background=*/true, /*sunlit=*/false,
+  s.rendered = RenderStems(rendered_stems, /*textured_background=*/true, /*sunlit=*/false,
                            Texture::kIrregular, PinholeCamera::FromHfov(960, 540, 67.0), clumps);
+  std::vector<Eigen::Vector3d> stems = rendered_stems;
+  stems.insert(stems.end(), smear.begin(), smear.end());
   for (const cv::Mat& g : s.rendered.gray) {
     s.bgr.emplace_back();
     cv::cvtColor(g, s.bgr.back(), cv::COLOR_GRAY2BGR);
@@ -223,6 +230,7 @@ Scene MakeScene(const std::vector<Eigen::Vector3d>& stems,
       const double r = stems[i].z();
       const double toward = std::atan2(eye.y() - c.y(), eye.x() - c.x());
       const double half_arc = i < seen_half_arc_rad.size() ? seen_half_arc_rad[i] : 1.3;
+      if (half_arc < 0) continue;
       for (int j = 0; j < 120; ++j) {
         const double a = toward + rng.Uniform(-half_arc, half_arc);  // the side facing the camera
         const Eigen::Vector2d xy = c + r * Eigen::Vector2d(std::cos(a), std::sin(a));
@@ -523,6 +531,25 @@ TEST(MeasureTrees, AStemWithACrownAgainstOneSideIsListed) {
     const Eigen::Vector3d sapling(beside.x(), beside.y(), 0.015);
     const LeafClump crown{{beside.x(), beside.y(), 1.4}, {0.3, 0.3, 0.25}, 0.35};
     ExpectListed({stem}, Measure(MakeScene({stem, sapling}, {crown})));
+  }
+}
+
+// A stem whose points stereo smeared toward the camera: the cloud has none on its bark, and a
+// part 1.2-2 m in front of it on its bearing, as wide as the stem seen from there or a little
+// narrower, where nothing stands. The part shows no silhouettes and comes to nothing; the stem,
+// found where its silhouettes meet (SilhouetteVoteOptions), is listed with its width: the part
+// does not hide its sides from its edge search (it did, MeasureOptions::unfitted_parts_hide, and
+// the stem went unlisted).
+TEST(MeasureTrees, AStemBehindSmearWhereNothingStandsIsListed) {
+  const Eigen::Vector3d stem(8.0, 0.0, 0.14);
+  for (const double ahead_m : {1.2, 2.0}) {
+    for (const double width_share : {0.8, 1.0}) {
+      SCOPED_TRACE(::testing::Message() << "smear " << ahead_m << " m ahead, " << width_share
+                                        << " of the stem's apparent width");
+      const double x = stem.x() - ahead_m;
+      const Eigen::Vector3d smear(x, 0.0, width_share * stem.z() * x / stem.x());
+      ExpectListed({stem}, Measure(MakeScene({stem}, {}, {-1.0}, {smear})));
+    }
   }
 }
 

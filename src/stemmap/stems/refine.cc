@@ -252,9 +252,9 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
 }
 
 void PlaceFittedOccluders(std::span<const Stem> fitted, std::span<const Eigen::Vector3d> leaves,
-                          size_t part, bool mixed_part_core,
+                          size_t part, bool unfitted_hides,
                           std::vector<Eigen::Vector3d>* occluders) {
-  if (fitted.empty() && mixed_part_core) (*occluders)[part] = kNoOccluder;
+  if (fitted.empty() && !unfitted_hides) (*occluders)[part] = kNoOccluder;
   for (size_t k = 0; k < leaves.size(); ++k) {
     if (k == 0 && fitted.empty()) {
       (*occluders)[part] = leaves[k];
@@ -820,7 +820,8 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     const bool mixed_part_core = (*stems)[i].mixed_part_core;
     leaves.clear();
     const PartOutcome p = ResolvePart(o, std::move((*stems)[i]), refine, &kept);
-    PlaceFittedOccluders(std::span(kept).subspan(before), leaves, i, mixed_part_core, &occluders);
+    PlaceFittedOccluders(std::span(kept).subspan(before), leaves, i,
+                         o.unfitted_parts_hide && !mixed_part_core, &occluders);
     total.fitted += p.fitted;
     total.from_cores += p.from_cores;
     total.dropped += p.dropped;

@@ -100,14 +100,14 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
 inline const Eigen::Vector3d kNoOccluder = Eigen::Vector3d::Zero();
 
 // The stems that one part of the cloud became (`fitted`) replace that part's circle (x, y,
-// radius) among the occluders that farther stems' edge searches stop at; a part that became
-// nothing keeps its cloud circle, unless it was a core of a part no stem as a whole
-// (Stem::mixed_part_core: a shrub's or a sapling's, as often as not), which then hides nothing.
-// `leaves`: the circles of the leafy outlines its fits found (LeafyOutline): no stems, but they
-// hide what lies behind them as their silhouettes show it, in the part's place where it became
-// nothing else.
+// radius) among the occluders that farther stems' edge searches stop at. A part that became
+// nothing hides nothing, unless `unfitted_hides` (MeasureOptions::unfitted_parts_hide; never for
+// a core of a part no stem as a whole, Stem::mixed_part_core: a shrub's or a sapling's, as often
+// as not), which keeps its cloud circle. `leaves`: the circles of the leafy outlines its fits
+// found (LeafyOutline): no stems, but they hide what lies behind them as their silhouettes show
+// it, in the part's place where it became nothing else.
 void PlaceFittedOccluders(std::span<const Stem> fitted, std::span<const Eigen::Vector3d> leaves,
-                          size_t part, bool mixed_part_core,
+                          size_t part, bool unfitted_hides,
                           std::vector<Eigen::Vector3d>* occluders);
 
 // The larger cloud's stems alone (`candidates`, nearest first), each tried where its centre

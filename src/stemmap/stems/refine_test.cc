@@ -73,22 +73,21 @@ TEST(PlaceFittedOccluders, FittedStemsReplaceTheirPartsCircle) {
   fitted[0].dbh_tangent_m = 0.4;  // the silhouettes'
   fitted[1].centre_xy = {5.4, -0.3};
   fitted[1].dbh_m = 0.2;
-  PlaceFittedOccluders(fitted, {}, 1, false, &occluders);
+  PlaceFittedOccluders(fitted, {}, 1, true, &occluders);
   ASSERT_EQ(occluders.size(), 4u);
   EXPECT_EQ(occluders[0], Eigen::Vector3d(1, 0, 0.1));
   EXPECT_EQ(occluders[1], Eigen::Vector3d(5.1, 0.2, 0.2));
   EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
   EXPECT_EQ(occluders[3], Eigen::Vector3d(5.4, -0.3, 0.1));
-  // A part that became nothing keeps its cloud circle.
-  PlaceFittedOccluders({}, {}, 2, false, &occluders);
+  // A part that became nothing keeps its cloud circle only where asked to.
+  PlaceFittedOccluders({}, {}, 2, true, &occluders);
   EXPECT_EQ(occluders[2], Eigen::Vector3d(9, 0, 0.2));
-  // A core of a part no stem as a whole that became nothing hides nothing.
-  PlaceFittedOccluders({}, {}, 0, true, &occluders);
+  PlaceFittedOccluders({}, {}, 0, false, &occluders);
   EXPECT_EQ(occluders[0], kNoOccluder);
   EXPECT_FALSE(BesideNearerStem({kNoOccluder}, {5.0, 0.0}, 0.2, 0.0));
   // One that became a stem stands as it.
   occluders[0] = {1, 0, 0.1};
-  PlaceFittedOccluders(std::span(fitted).first(1), {}, 0, true, &occluders);
+  PlaceFittedOccluders(std::span(fitted).first(1), {}, 0, false, &occluders);
   EXPECT_EQ(occluders[0], Eigen::Vector3d(5.1, 0.2, 0.2));
 }
 
@@ -96,18 +95,18 @@ TEST(PlaceFittedOccluders, LeavesHideWhatTheirOutlinesCover) {
   std::vector<Eigen::Vector3d> occluders = {{1, 0, 0.1}, {5, 0, 0.3}};
   const std::vector<Eigen::Vector3d> leaves = {{5.2, 0.1, 0.05}, {5.3, -0.2, 0.04}};
   // A part that became nothing but leaves: they stand in its place, as its silhouettes saw them.
-  PlaceFittedOccluders({}, leaves, 1, false, &occluders);
+  PlaceFittedOccluders({}, leaves, 1, true, &occluders);
   ASSERT_EQ(occluders.size(), 3u);
   EXPECT_EQ(occluders[1], leaves[0]);
   EXPECT_EQ(occluders[2], leaves[1]);
-  // Also a core of a part no stem as a whole.
-  PlaceFittedOccluders({}, std::span(leaves).first(1), 0, true, &occluders);
+  // Also where the part itself would hide nothing.
+  PlaceFittedOccluders({}, std::span(leaves).first(1), 0, false, &occluders);
   EXPECT_EQ(occluders[0], leaves[0]);
   // Beside a stem the part became, they hide what lies behind them too.
   std::vector<Stem> fitted(1);
   fitted[0].centre_xy = {5.0, 0.0};
   fitted[0].dbh_m = 0.3;
-  PlaceFittedOccluders(fitted, std::span(leaves).last(1), 1, false, &occluders);
+  PlaceFittedOccluders(fitted, std::span(leaves).last(1), 1, true, &occluders);
   ASSERT_EQ(occluders.size(), 4u);
   EXPECT_EQ(occluders[1], Eigen::Vector3d(5.0, 0.0, 0.15));
   EXPECT_EQ(occluders[3], leaves[1]);
