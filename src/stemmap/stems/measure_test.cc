@@ -201,10 +201,9 @@ bool BehindLeaves(const std::vector<LeafClump>& clumps, const Eigen::Vector3d& f
 // Stems (x, y, radius) and the leaf clumps (saplings' crowns) among them. `seen_half_arc_rad`:
 // for the first stems, how far each side of the middle of the face a keyframe sees its stereo
 // gives points (1.3 rad where not given; less: the cloud saw a sliver of it; negative: none, its
-// points all smeared elsewhere). `smear`: circles
-// the cloud has points on, as on a stem's face, though nothing stands there (stereo's smear of
-// a farther stem toward the camera): in the cloud, hiding the points behind them, and not in the
-// pictures.
+// points all smeared elsewhere). `smear`: circles the cloud has points on, as on a stem's face,
+// though nothing stands there (stereo's smear of a farther stem toward the camera): in the cloud,
+// hiding the points behind them, and not in the pictures.
 Scene MakeScene(const std::vector<Eigen::Vector3d>& rendered_stems,
                 const std::vector<LeafClump>& clumps = {},
                 const std::vector<double>& seen_half_arc_rad = {},
