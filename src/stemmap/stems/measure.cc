@@ -65,6 +65,9 @@ void MeasureOptions::Check() const {
     throw InputError(
         "the two-sided share of a narrower fit whose bark lines up must lie in [0, 0.5]");
   }
+  if (!(narrower_max_bark_past_outline >= 0)) {
+    throw InputError("the share of bark past a narrower fit's outline must not be negative");
+  }
   if (!(outline_over_bark_two_sided_share >= 0 && outline_over_bark_two_sided_share <= 1)) {
     throw InputError(
         "the two-sided share of an outline that outweighs its bark must lie in [0, 1]");

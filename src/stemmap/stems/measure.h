@@ -113,6 +113,18 @@ struct MeasureOptions {
   // cloud's width when both its sides show in half the views that tried it, on one circle to
   // about a pixel; where its bark lines up too (BarkDepth::ok), in this share of them.
   double narrower_on_bark_two_sided_share = 0.25;
+  // A circle inside a stem: a line on its bark (where sunlit bark meets shaded, a mark) and one
+  // true outline can stay tangent to one narrower circle across the few degrees the arm sees a
+  // far stem over, and its bark lines up on it too. The stem's own points give it away: they go
+  // on past that circle's outline at the range of its face, where a real outline has background
+  // behind it. A fit narrower than the points is not taken where the part's breast-height
+  // points at its face's range, past one of its outlines, are this share or more of those within
+  // its outline (BarkPastOutlineShare): the points' width stands. A circle at 0.4-0.7 of the
+  // stem gives 1.1-0.37; leaves scattered around a stem as wide as 7 times it, up to twice its
+  // points, under 0.2; fits at stems on 18 simulated plots, at most 0.12. Not for a smeared
+  // part (its width is rough; the fit may be narrower) nor a sapling's outline
+  // (sapling_outline_max_dbh_cm). 0: off.
+  double narrower_max_bark_past_outline = 0.3;
   // Bark that correlates nowhere between views (leaves, or their shadows, across it from view to
   // view) does not outweigh a whole outline: a fit two-sided in at least this share of the views
   // that tried it, its rays on one circle to this many pixels (rms, px at the stem), its radius
@@ -184,10 +196,11 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     min_bark_gap_m, larger_cloud_part_gap_m, larger_cloud_only_max_rms_px,
     larger_cloud_whole_where_open, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
     tight_fit_rms_px, min_judged_px_m, loose_wider_max_over_cloud, narrower_on_bark_two_sided_share,
-    outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share,
-    weak_on_bark_max_rms_px, leafy_edge_scatter_m, leafy_edge_scatter_px, leafy_edge_share,
-    sides_past_nearer_min_views, one_side_past_nearer_min_views, hidden_side_min_gain,
-    hidden_side_stand_min_stems, hidden_side_min_seen_share)
+    narrower_max_bark_past_outline, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
+    outline_over_bark_cloud_share, weak_on_bark_max_rms_px, leafy_edge_scatter_m,
+    leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views,
+    one_side_past_nearer_min_views, hidden_side_min_gain, hidden_side_stand_min_stems,
+    hidden_side_min_seen_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

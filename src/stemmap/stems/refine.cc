@@ -58,6 +58,27 @@ int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems) {
   return dropped;
 }
 
+double BarkPastOutlineShare(std::span<const Eigen::Vector2d> slice_xy,
+                            const Eigen::Vector2d& centre, double radius_m) {
+  const double distance_m = centre.norm();
+  if (!(radius_m > 0) || distance_m <= radius_m) return 0.0;
+  const double half_rad = std::asin(radius_m / distance_m);
+  const double bearing = std::atan2(centre.y(), centre.x());
+  const double face_m = distance_m - radius_m;
+  const double face_tol_m = std::max(0.05, radius_m);
+  int inside = 0;
+  std::array<int, 2> past{0, 0};
+  for (const Eigen::Vector2d& p : slice_xy) {
+    const double u = std::remainder(std::atan2(p.y(), p.x()) - bearing, 2 * M_PI) / half_rad;
+    if (std::abs(u) < 1) {
+      ++inside;
+    } else if (std::abs(u) > 1.3 && std::abs(u) < 4 && std::abs(p.norm() - face_m) < face_tol_m) {
+      ++past[u > 0];
+    }
+  }
+  return inside > 0 ? static_cast<double>(std::max(past[0], past[1])) / inside : 0.0;
+}
+
 double JudgedPixelM(const MeasureOptions& o, double distance_m, double fx_px) {
   return std::max(distance_m / fx_px, o.min_judged_px_m);
 }
@@ -72,8 +93,19 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   const bool loose_narrower = f.radius_m < r0 && f.rms_m > o.loose_fit_rms_px * px_m;
   const bool tight = f.rms_m < o.tight_fit_rms_px * px_m;
   const bool loose_wider = f.radius_m > o.loose_wider_max_over_cloud * r0 && !tight;
-  const bool near_cloud =
-      std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01 && !loose_narrower && !loose_wider;
+  // A fit narrower than the points whose bark goes on past one of its outlines at its face lies
+  // inside the stem, between a line on its bark and one true outline
+  // (narrower_max_bark_past_outline): neither near the points' width nor outranking it.
+  const double bark_past =
+      f.radius_m < r0 ? BarkPastOutlineShare(s.slice_xy, f.centre, f.radius_m) : 0.0;
+  const bool inside_stem =
+      o.narrower_max_bark_past_outline > 0 && bark_past >= o.narrower_max_bark_past_outline;
+  if (inside_stem && f.ok) {
+    spdlog::debug("stems: fit ({:.2f}, {:.2f}) {:.3f} m inside the stem's {:.3f} m: bark {:.2f}",
+                  f.centre.x(), f.centre.y(), 2 * f.radius_m, 2 * r0, bark_past);
+  }
+  const bool near_cloud = std::abs(f.radius_m - r0) < 0.35 * r0 + 0.01 && !loose_narrower &&
+                          !loose_wider && !inside_stem;
   const bool two_sided = f.two_sided_views >= 3 && tight;
   const bool wider_two_sided =
       two_sided && f.radius_m > r0 && f.radius_m < o.tangent.WidestFitScale() * r0;
@@ -83,11 +115,13 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   // Both sides in most views, agreeing to a pixel, narrower than the points: the cloud took in
   // what stands beside the stem (a shrub, a sapling, a sapling's leaves). A furrow does not stay
   // tangent across views. Where the bark lines up on the fit, a share of the views will do: a
-  // circle inside a stem, or around two things, does not warp one view's bark onto the next.
+  // circle around two things does not warp one view's bark onto the next (a circle inside a
+  // stem may, and its points tell: inside_stem).
   const double two_sided_share = bark_lines_up ? o.narrower_on_bark_two_sided_share : 0.5;
   const bool inside_part = f.radius_m < r0 && f.radius_m > o.tangent.narrow_min_share * r0;
-  const bool narrower_two_sided =
-      two_sided && f.two_sided_views >= two_sided_share * f.tried_views && inside_part;
+  const bool narrower_two_sided = two_sided &&
+                                  f.two_sided_views >= two_sided_share * f.tried_views &&
+                                  inside_part && !inside_stem;
   // A sapling's thin stem outlined inside the part its leaves or smear widened
   // (MeasureOptions::sapling_outline_max_dbh_cm).
   const bool sapling_outline =

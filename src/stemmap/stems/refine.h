@@ -29,6 +29,14 @@ enum class SilhouetteVerdict {
 // length), as the silhouettes' rms is judged: at least MeasureOptions::min_judged_px_m.
 double JudgedPixelM(const MeasureOptions& o, double distance_m, double fx_px);
 
+// Of a stem's breast-height points `slice_xy` (plot frame), seen from the plot centre: those at
+// the range of the face of the circle (centre, radius_m), within max(5 cm, its radius) of it,
+// and 1.3 to 4 of its angular half-widths past one of its outlines (the side with more), over those
+// within its outline at any range; 0 where none lie within. A stem's bark going on past a circle's
+// outline at the circle's face makes this a good part of one; past a real outline lies background.
+double BarkPastOutlineShare(std::span<const Eigen::Vector2d> slice_xy,
+                            const Eigen::Vector2d& centre, double radius_m);
+
 // `px_m` is one pixel's footprint at the stem's distance (JudgedPixelM); `bark_lines_up`: the
 // views warped through the fitted circle line up on its bark (BarkDepth::ok).
 SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& stem,

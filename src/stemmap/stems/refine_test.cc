@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <random>
 
 #include "stemmap/core/check_message.h"
 #include "stemmap/stems/silhouette.h"
@@ -984,6 +985,132 @@ TEST(JudgeSilhouetteFit, AWeakPartIsConfirmedByAWholeOutlineWhereItsBarkLinesUp)
         EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, bark), want)
             << rms_px << " px, two-sided in " << two_sided << " of 20, bark " << bark;
       }
+    }
+  }
+}
+
+// A stem's breast-height points as stereo gives them: its face seen from the plot centre (the
+// surface within 75 degrees of the line of sight), a point every 2 mm of bark, each off in range
+// by up to `noise_m`.
+std::vector<Eigen::Vector2d> BarkArc(const Eigen::Vector2d& centre, double radius_m, double noise_m,
+                                     std::mt19937* rng) {
+  std::uniform_real_distribution<double> jitter(-noise_m, noise_m);
+  const double toward = std::atan2(-centre.y(), -centre.x());
+  const double arc = 75.0 * M_PI / 180.0;
+  const int n = std::max(8, static_cast<int>(2 * arc * radius_m / 0.002));
+  std::vector<Eigen::Vector2d> pts;
+  for (int i = 0; i < n; ++i) {
+    const double a = toward - arc + 2 * arc * i / (n - 1);
+    const Eigen::Vector2d p = centre + radius_m * Eigen::Vector2d(std::cos(a), std::sin(a));
+    pts.push_back(p * (1 + jitter(*rng) / p.norm()));
+  }
+  return pts;
+}
+
+// The circle of `share` of a stem's radius inside it whose left outline (seen from the plot
+// centre) is the stem's own and whose face lies on the stem's bark: a line on the bark (where
+// sunlit bark meets shaded) and the true outline tangent to it.
+TangentFit CircleInsideStem(const Eigen::Vector2d& stem_xy, double stem_radius_m, double share) {
+  const double r = share * stem_radius_m, d = stem_xy.norm();
+  const double left = std::atan2(stem_xy.y(), stem_xy.x()) + std::asin(stem_radius_m / d);
+  double range_m = d;  // of the inner circle's centre, solved for in a few rounds
+  Eigen::Vector2d c;
+  for (int i = 0; i < 20; ++i) {
+    const double bearing = left - std::asin(r / range_m);
+    const Eigen::Vector2d dir(std::cos(bearing), std::sin(bearing));
+    // Where the line of sight along `bearing` meets the stem's face.
+    const double along = dir.dot(stem_xy);
+    const double across2 = stem_xy.squaredNorm() - along * along;
+    range_m = along - std::sqrt(std::max(0.0, stem_radius_m * stem_radius_m - across2)) + r;
+    c = range_m * dir;
+  }
+  TangentFit f;
+  f.ok = true;
+  f.centre = c;
+  f.radius_m = r;
+  return f;
+}
+
+// A circle inside a stem, between a line on its bark and one true outline, has the stem's own
+// points going on past its other outline at its face's range; the stem's circle has none past
+// either. Swept over the stem's width and distance and the inner circle's share of it.
+TEST(BarkPastOutlineShare, ACircleInsideAStemHasItsBarkPastOneOutline) {
+  const MeasureOptions o;
+  std::mt19937 rng(7);
+  for (const double dbh_cm : {20.0, 27.0, 40.0}) {
+    for (const double distance_m : {4.0, 7.0, 10.0}) {
+      const Eigen::Vector2d xy(distance_m * std::cos(0.4), distance_m * std::sin(0.4));
+      const double radius_m = 0.005 * dbh_cm;
+      const std::vector<Eigen::Vector2d> bark = BarkArc(xy, radius_m, 0.01, &rng);
+      EXPECT_LT(BarkPastOutlineShare(bark, xy, radius_m), 0.02) << dbh_cm << " cm";
+      for (const double share : {0.4, 0.5, 0.6, 0.7}) {
+        const TangentFit inner = CircleInsideStem(xy, radius_m, share);
+        EXPECT_GE(BarkPastOutlineShare(bark, inner.centre, inner.radius_m),
+                  o.narrower_max_bark_past_outline)
+            << dbh_cm << " cm at " << distance_m << " m, inner circle " << share;
+      }
+    }
+  }
+}
+
+// A stem inside a part its leaves (or a shrub's) widen: the leaves fill a volume around it,
+// scattered in range, and few of them lie at its face's range past its outline. Swept over the
+// stem's width, the part's, and how many leaf points there are for each of bark, several seeds.
+TEST(BarkPastOutlineShare, LeavesAroundAStemSeldomLieAtItsFacePastItsOutline) {
+  const MeasureOptions o;
+  for (const double dbh_cm : {8.0, 12.0, 18.0}) {
+    for (const double part_m : {0.3, 0.45, 0.6}) {
+      for (const double leaves_per_bark : {0.5, 1.0, 2.0}) {
+        for (const unsigned seed : {1u, 2u, 3u}) {
+          std::mt19937 rng(seed);
+          const Eigen::Vector2d xy(6.0, 1.0);
+          const double radius_m = 0.005 * dbh_cm;
+          std::vector<Eigen::Vector2d> pts = BarkArc(xy, radius_m, 0.01, &rng);
+          std::uniform_real_distribution<double> across(-0.5 * part_m, 0.5 * part_m);
+          const size_t leaves = static_cast<size_t>(leaves_per_bark * pts.size());
+          for (size_t i = 0; i < leaves; ++i) {
+            pts.push_back(xy + Eigen::Vector2d(across(rng), across(rng)));
+          }
+          EXPECT_LT(BarkPastOutlineShare(pts, xy, radius_m), o.narrower_max_bark_past_outline)
+              << dbh_cm << " cm stem in a " << part_m << " m part, " << leaves_per_bark
+              << " leaf points a bark point, seed " << seed;
+        }
+      }
+    }
+  }
+}
+
+// A narrower fit two-sided in every view, on one circle to a fraction of a pixel, its bark
+// lining up: taken over the cloud's width where it outlines the stem inside its leaves, not
+// where it lies inside the stem (narrower_max_bark_past_outline; with the rule off it was).
+// Swept over the inner circle's share of the stem and the stem's distance.
+TEST(JudgeSilhouetteFit, ANarrowerCircleInsideAStemIsNotTaken) {
+  MeasureOptions off;
+  off.narrower_max_bark_past_outline = 0;
+  for (const double distance_m : {5.0, 8.0}) {
+    for (const double share : {0.4, 0.5, 0.6}) {
+      std::mt19937 rng(3);
+      Case c;
+      c.stem.centre_xy = {distance_m, 0.0};
+      c.stem.slice_xy = BarkArc(c.stem.centre_xy, 0.5 * c.stem.dbh_slice_m, 0.01, &rng);
+      const TangentFit inner = CircleInsideStem(c.stem.centre_xy, 0.5 * c.stem.dbh_slice_m, share);
+      c.fit.centre = inner.centre;
+      c.fit.radius_m = inner.radius_m;
+      c.fit.tried_views = c.fit.views = c.fit.two_sided_views = 20;
+      SCOPED_TRACE(::testing::Message() << share << " of the stem at " << distance_m << " m");
+      EXPECT_EQ(JudgeSilhouetteFit({}, c.stem, c.fit, c.px_m, true), SilhouetteVerdict::kKeepCloud);
+      EXPECT_EQ(JudgeSilhouetteFit(off, c.stem, c.fit, c.px_m, true), SilhouetteVerdict::kUse);
+      // The same circle as a stem's own, its part widened by leaves around it: taken.
+      Case leafy = c;
+      leafy.stem.slice_xy = BarkArc(inner.centre, inner.radius_m, 0.01, &rng);
+      std::uniform_real_distribution<double> across(-0.5 * c.stem.dbh_slice_m,
+                                                    0.5 * c.stem.dbh_slice_m);
+      const size_t bark_points = leafy.stem.slice_xy.size();
+      for (size_t i = 0; i < bark_points; ++i) {
+        leafy.stem.slice_xy.push_back(c.stem.centre_xy + Eigen::Vector2d(across(rng), across(rng)));
+      }
+      EXPECT_EQ(JudgeSilhouetteFit({}, leafy.stem, leafy.fit, leafy.px_m, true),
+                SilhouetteVerdict::kUse);
     }
   }
 }

@@ -514,6 +514,7 @@ std::optional<Stem> MeasurePart(const StemOptions& o, const Band& b, const std::
   s.pass_through = PassThroughRatio(b.points, c, r);
   s.centre_xy = c;
   s.face_range_m = face_m;
+  s.slice_xy = slice;
   s.ground_z_m = ground.UphillHeight(c.x(), c.y(), r);
   s.floor_z_m = ground.FloorHeight(c.x(), c.y());
   s.dbh_m = o.dbh_method == DbhMethod::kCircle ? s.dbh_circle_m : s.dbh_slice_m;  // tangent: later

@@ -169,6 +169,9 @@ struct Stem {
   // The median distance from the plot centre of its breast-height slice's points: the face the
   // cameras saw (0 where unknown). Stereo's depth, coarse at a point, is fine in the median.
   double face_range_m = 0.0;
+  // That slice's points (plot frame): where the stem's surface is, to check a silhouette fit's
+  // outline against (BarkPastOutlineShare). Empty where no part of a cloud gave the stem.
+  std::vector<Eigen::Vector2d> slice_xy;
   // Where a nearer stem hides one side in every view that could show it (StemFlag::
   // kWidthFromStand): the DBH its seen side and its cloud give (a lower bound), and the widest it
   // could be with that side still hidden (WidestRadiusWithSideHidden); 0 elsewhere.
