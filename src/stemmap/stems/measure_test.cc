@@ -47,6 +47,12 @@ TEST(MeasureOptions, TheTightAndLooseFitSettingsAreChecked) {
   o.loose_wider_max_over_cloud = 0.95;
   EXPECT_EQ(CheckMessage(o),
             "the width over the cloud's a loose wider fit may reach must be at least 1");
+  o = MeasureOptions();
+  o.narrower_max_bark_past_outline = -0.1;
+  EXPECT_EQ(CheckMessage(o),
+            "the share of bark past a narrower fit's outline must not be negative");
+  o.narrower_max_bark_past_outline = 0;  // off
+  EXPECT_NO_THROW(o.Check());
 }
 
 TEST(MeasureOptions, TheLargerCloudsSettingsAreChecked) {
