@@ -145,20 +145,6 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   int width = x_end - x_begin + 1;
   std::vector<double> diff(width, 0.0);
   std::vector<int> count(width, 0);
-  // Where each pixel's ray meets the stem's surface (or the axis plane), shared by both
-  // neighbours; NaN where the ray goes away from it.
-  std::vector<Eigen::Vector3d> on_stem(static_cast<size_t>(y_end - y_begin + 1) * width);
-  // Rotations as matrices: a quaternion costs twice the multiplications per pixel.
-  const Eigen::Matrix3d world_from_k_rotation = world_from_k.rotation.toRotationMatrix();
-  for (int y = y_begin; y <= y_end; ++y) {
-    for (int x = x_begin; x <= x_end; ++x) {
-      const Eigen::Vector3d ray = world_from_k_rotation * cam.CamRayFromImage({x, y});
-      const double t = depth_along(ray);
-      on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)] =
-          t <= 0 ? Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())
-                 : Eigen::Vector3d(ck + t * ray);
-    }
-  }
   std::vector<int> neighbours;
   for (int side : {-1, 1}) {
     int j = k + side;
@@ -180,29 +166,63 @@ Edges FindEdges(const TangentOptions& o, const TangentViews& v, int k, const Eig
   const auto [steps, step_m] = neighbours.empty()
                                    ? std::pair<int, double>{0, 0.0}
                                    : NearDepthSteps(o, apart_m * cam.fx, std::max(0.1, dist - r0));
-  std::vector<double> d(width);
-  std::vector<int> n(width);
   // With depth steps, every other row: the steps cost their number of warps, and a near stem's
   // bands hold rows to spare.
   const int row_step = steps > 0 ? 2 : 1;
+  // Where each pixel's ray meets the stem's surface (or the axis plane), shared by both
+  // neighbours; NaN where the ray goes away from it. Rows from y_begin by row_step.
+  std::vector<Eigen::Vector3d> on_stem;
+  on_stem.reserve(static_cast<size_t>((y_end - y_begin) / row_step + 1) * width);
+  // Rotations as matrices: a quaternion costs twice the multiplications per pixel.
+  const Eigen::Matrix3d world_from_k_rotation = world_from_k.rotation.toRotationMatrix();
+  for (int y = y_begin; y <= y_end; y += row_step) {
+    for (int x = x_begin; x <= x_end; ++x) {
+      const Eigen::Vector3d ray = world_from_k_rotation * cam.CamRayFromImage({x, y});
+      const double t = depth_along(ray);
+      on_stem.push_back(t <= 0 ? Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())
+                               : Eigen::Vector3d(ck + t * ray));
+    }
+  }
+  // Each pixel's surface point in each neighbour's camera, and the move of one depth step there
+  // (along the ray from k): a step then costs an addition, not a rotation.
+  struct Warp {
+    const cv::Mat* img;
+    std::vector<Eigen::Vector3d> at, per_step;  // `at` NaN where the ray misses; no steps: none
+  };
+  std::vector<Warp> warps;
+  for (int j : neighbours) {
+    const Rigid3d j_from_world = kfs[j].world_from_cam.Inverse();
+    const Eigen::Matrix3d j_from_world_rotation = j_from_world.rotation.toRotationMatrix();
+    Warp w{&(*v.gray)[j], {}, {}};
+    w.at.reserve(on_stem.size());
+    for (const Eigen::Vector3d& p_w : on_stem) {
+      w.at.push_back(j_from_world_rotation * p_w + j_from_world.translation);
+    }
+    if (steps > 0) {
+      w.per_step.reserve(on_stem.size());
+      for (const Eigen::Vector3d& p_w : on_stem) {
+        w.per_step.push_back(j_from_world_rotation * (step_m * (p_w - ck).normalized()));
+      }
+    }
+    warps.push_back(std::move(w));
+  }
+  std::vector<double> d(width);
+  std::vector<int> n(width);
   for (int step = -steps; step <= steps; ++step) {
     std::ranges::fill(d, 0.0);
     std::ranges::fill(n, 0);
-    for (int j : neighbours) {
-      const Rigid3d j_from_world = kfs[j].world_from_cam.Inverse();
-      const Eigen::Matrix3d j_from_world_rotation = j_from_world.rotation.toRotationMatrix();
-      const cv::Mat& img_j = (*v.gray)[j];
+    for (const Warp& w : warps) {
+      size_t i = 0;
       for (int y = y_begin; y <= y_end; y += row_step) {
-        for (int x = x_begin; x <= x_end; ++x) {
-          Eigen::Vector3d p_w = on_stem[static_cast<size_t>(y - y_begin) * width + (x - x_begin)];
-          if (std::isnan(p_w.x())) continue;
-          if (step != 0) p_w += step * step_m * (p_w - ck).normalized();
-          const Eigen::Vector3d p_j = j_from_world_rotation * p_w + j_from_world.translation;
+        const uchar* row_k = img.ptr<uchar>(y);
+        for (int x = x_begin; x <= x_end; ++x, ++i) {
+          if (std::isnan(w.at[i].x())) continue;
+          const Eigen::Vector3d p_j = step == 0 ? w.at[i] : w.at[i] + step * w.per_step[i];
           if (p_j.z() <= 0.1) continue;
           const Eigen::Vector2d px = cam.ImageFromCam(p_j);
-          const float vj = BilinearGray(img_j, px.x(), px.y());
+          const float vj = BilinearGray(*w.img, px.x(), px.y());
           if (vj < 0) continue;
-          d[x - x_begin] += std::abs(img.at<uchar>(y, x) - vj);
+          d[x - x_begin] += std::abs(row_k[x] - vj);
           ++n[x - x_begin];
         }
       }
