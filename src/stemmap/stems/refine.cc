@@ -24,21 +24,30 @@ bool CirclesOverlap(const Stem& a, const Stem& b) {
   return (a.centre_xy - b.centre_xy).norm() < 0.5 * (a.dbh_m + b.dbh_m);
 }
 
+bool WidthRestsOnBothSides(const Stem& s) {
+  return !s.flags.Has(StemFlag::kOneSided) && !s.flags.Has(StemFlag::kNoSilhouette);
+}
+
 }  // namespace
 
 int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems) {
   std::vector<size_t> order(stems->size());
   std::iota(order.begin(), order.end(), 0);
-  // The farthest-moved fit is judged first; ties keep the list's order.
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return (*stems)[a].fit_shift_m > (*stems)[b].fit_shift_m;
-  });
+  // Judged first: a width resting on one side or on the cloud (a stem behind a nearer one, its
+  // seen side a leaf's edge, can come out several times too wide and so overlap the stem's own
+  // two-sided fit); then the farthest-moved fit. Ties keep the list's order.
+  auto judged_before = [&](size_t a, size_t b) {
+    const Stem &sa = (*stems)[a], &sb = (*stems)[b];
+    if (WidthRestsOnBothSides(sa) != WidthRestsOnBothSides(sb)) return WidthRestsOnBothSides(sb);
+    return sa.fit_shift_m > sb.fit_shift_m;
+  };
+  std::stable_sort(order.begin(), order.end(), judged_before);
   std::vector<char> drop(stems->size(), 0);
   for (size_t i : order) {
     const Stem& a = (*stems)[i];
     for (size_t j = 0; j < stems->size() && !drop[i]; ++j) {
       const Stem& b = (*stems)[j];
-      if (j == i || drop[j] || b.fit_shift_m > a.fit_shift_m) continue;
+      if (j == i || drop[j] || judged_before(j, i)) continue;
       const double gap = (a.centre_xy - b.centre_xy).norm() - 0.5 * (a.dbh_m + b.dbh_m);
       if (gap < min_bark_gap_m) drop[i] = 1;
     }

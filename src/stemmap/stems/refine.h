@@ -59,8 +59,10 @@ bool LeafyOutline(const MeasureOptions& o, const TangentFit& fit, double px_m,
 // through its own cloud circle line up (`cloud_bark` ok and not at the end of its search).
 bool BarkConfirmsCloud(const Stem& part, const TangentFit& fit, const BarkDepth& cloud_bark);
 
-// Drops the stems whose bark comes within `min_bark_gap_m` of another's (MeasureOptions), the
-// one whose fit moved farther from its points (Stem::fit_shift_m) first. Returns how many.
+// Drops the stems whose bark comes within `min_bark_gap_m` of another's (MeasureOptions): one
+// whose width rests on one side or its cloud (one_sided, no_silhouette) before one measured on
+// both sides, else the one whose fit moved farther from its points (Stem::fit_shift_m). Returns
+// how many.
 int DropStemsFittedTwice(double min_bark_gap_m, std::vector<Stem>* stems);
 
 // A stem as its silhouettes judged it.

@@ -589,6 +589,35 @@ TEST(DropStemsFittedTwice, DropsTheFitThatSlidOntoANearerStem) {
   EXPECT_DOUBLE_EQ(stems[2].centre_xy.x(), -6.0);
 }
 
+// One stem measured twice: a fit resting on one side (or the cloud's width), read 2-5 times too
+// wide where the seen side was a leaf's edge, its centre pushed back by the extra radius; and a
+// two-sided fit of the stem's own width whose candidate's points lay 0.3-1.0 m off. Whichever
+// moved farther, the two-sided fit stays.
+TEST(DropStemsFittedTwice, AWidthMeasuredOnBothSidesOutlivesOneRestingOnOneSide) {
+  for (const StemFlag weak : {StemFlag::kOneSided, StemFlag::kNoSilhouette}) {
+    for (double dbh_m : {0.12, 0.2, 0.35}) {
+      for (double wider : {2.0, 3.0, 5.0}) {
+        for (double moved_m : {0.3, 0.6, 1.0}) {
+          const double d = 8.5, extra = 0.5 * dbh_m * (wider - 1);
+          Stem one_side = Fitted(-(d + extra), 0.0, wider * dbh_m, 0.1);
+          one_side.flags.Set(weak);
+          std::vector<Stem> stems = {one_side, Fitted(-d, 0.03, dbh_m, moved_m)};
+          EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
+          ASSERT_EQ(stems.size(), 1u);
+          EXPECT_DOUBLE_EQ(stems[0].dbh_m, dbh_m)
+              << FlagName(weak) << " " << dbh_m << " x" << wider << " moved " << moved_m;
+        }
+      }
+    }
+  }
+  // Both resting on one side: the farther-moved one goes, as between two two-sided fits.
+  std::vector<Stem> stems = {Fitted(-8.8, 0.0, 0.5, 0.1), Fitted(-8.5, 0.03, 0.2, 0.6)};
+  for (Stem& s : stems) s.flags.Set(StemFlag::kOneSided);
+  EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
+  ASSERT_EQ(stems.size(), 1u);
+  EXPECT_DOUBLE_EQ(stems[0].dbh_m, 0.5);
+}
+
 TEST(DropStemsFittedTwice, OfTwoEquallyMovedStemsOneStays) {
   std::vector<Stem> stems = {Fitted(5.0, 0.0, 0.30, 0.0), Fitted(5.0, 0.30, 0.30, 0.0)};
   EXPECT_EQ(DropStemsFittedTwice(0.02, &stems), 1);
