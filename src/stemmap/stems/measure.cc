@@ -38,6 +38,9 @@ void MeasureOptions::Check() const {
     throw InputError(
         "the gap within which a larger cloud's part joins a stem must not be negative");
   }
+  if (!(fit_on_cloud_max_pass_through >= 0 && fit_on_cloud_max_pass_through < 1)) {
+    throw InputError("the share of rays that may pass a fit on the cloud must lie in [0, 1)");
+  }
   if (!(larger_cloud_only_max_rms_px >= 0)) {
     throw InputError("the rms a larger cloud's stem's silhouettes may keep must not be negative");
   }
@@ -189,8 +192,16 @@ MeasureResult MeasureTrees(const MeasureOptions& o, MeasureInput in) {
       in.camera->fx * (in.gray_full.empty() || in.gray_full[0].empty()
                            ? 1.0
                            : static_cast<double>(in.gray_full[0].cols) / in.camera->width);
+  // The cloud's rays at a fitted circle, for stems without a part of their own.
+  const std::vector<const dense::CloudPoint*> band = BandPoints(o.stems, *in.cloud, ground);
+  auto on_cloud_surface = [&](const Eigen::Vector2d& centre, double radius_m) {
+    int hits = 0;
+    const double through = PassThroughRatio(band, centre, radius_m, &hits);
+    return hits >= o.stems.min_points && through <= o.fit_on_cloud_max_pass_through;
+  };
   RefineWithTangentRays(o, *in.camera, *in.keyframes, std::move(in.gray_full), *in.bgr, &sr.stems,
-                        std::move(larger_only), std::move(voted));
+                        std::move(larger_only), std::move(voted),
+                        o.fit_on_cloud_max_pass_through > 0 ? on_cloud_surface : CloudSurfaceAt());
   WidthsFromStand(o, &sr.stems);
   const size_t below =
       std::erase_if(sr.stems, [&](const Stem& s) { return 100 * s.dbh_m < o.min_dbh_cm; });

@@ -84,6 +84,12 @@ struct MeasureOptions {
   // hid a side (RefinedStem::whole_where_open), at least min_dbh_cm wide: a stem a nearer one
   // hides for part of the turn, as BarkConfirmsCloud counts a part's views.
   bool larger_cloud_whole_where_open = true;
+  // Or where the cloud's own rays end on its fitted circle: at least StemOptions::min_points of
+  // them, and at most this share of those meeting it passing through (RefinedStem::
+  // on_cloud_surface), its bark lining up on the fit or too little seen to say. A stem near the
+  // camera, seen on its front arc alone, can give a part set back behind its bark that the
+  // free-space veto rejects; the fit puts the circle on the bark. 0: not used.
+  double fit_on_cloud_max_pass_through = 0.25;
   // A fit over this many times the cloud's radius found silhouettes beyond anything the cloud
   // saw (a wide start that closed on a sapling and the stem behind it, or on two neighbours):
   // it stands only where the bark between them lines up to at least this correlation over
@@ -194,13 +200,13 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     ground, uncertainty, require_silhouette, unfitted_parts_hide, keep_bark_confirmed_cloud,
     one_sided_max_over_cloud, one_sided_min_cloud_radius_m, min_core_share, narrow_fit_share,
     min_bark_gap_m, larger_cloud_part_gap_m, larger_cloud_only_max_rms_px,
-    larger_cloud_whole_where_open, wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px,
-    tight_fit_rms_px, min_judged_px_m, loose_wider_max_over_cloud, narrower_on_bark_two_sided_share,
-    narrower_max_bark_past_outline, outline_over_bark_two_sided_share, outline_over_bark_rms_px,
-    outline_over_bark_cloud_share, weak_on_bark_max_rms_px, leafy_edge_scatter_m,
-    leafy_edge_scatter_px, leafy_edge_share, sides_past_nearer_min_views,
-    one_side_past_nearer_min_views, hidden_side_min_gain, hidden_side_stand_min_stems,
-    hidden_side_min_seen_share)
+    larger_cloud_whole_where_open, fit_on_cloud_max_pass_through, wide_fit_scale,
+    wide_fit_min_bark_ncc, loose_fit_rms_px, tight_fit_rms_px, min_judged_px_m,
+    loose_wider_max_over_cloud, narrower_on_bark_two_sided_share, narrower_max_bark_past_outline,
+    outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share,
+    weak_on_bark_max_rms_px, leafy_edge_scatter_m, leafy_edge_scatter_px, leafy_edge_share,
+    sides_past_nearer_min_views, one_side_past_nearer_min_views, hidden_side_min_gain,
+    hidden_side_stand_min_stems, hidden_side_min_seen_share)
 
 struct MeasureInput {
   const std::vector<dense::CloudPoint>* cloud = nullptr;  // plot frame, each point with its ray

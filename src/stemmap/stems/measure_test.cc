@@ -65,6 +65,10 @@ TEST(MeasureOptions, TheLargerCloudsSettingsAreChecked) {
   EXPECT_EQ(CheckMessage(o),
             "the rms a larger cloud's stem's silhouettes may keep must not be negative");
   o = MeasureOptions();
+  o.fit_on_cloud_max_pass_through = 1.0;
+  EXPECT_EQ(CheckMessage(o),
+            "the share of rays that may pass a fit on the cloud must lie in [0, 1)");
+  o = MeasureOptions();
   o.wide_fit_scale = 0.9;
   EXPECT_EQ(CheckMessage(o),
             "the width over the cloud's that needs the bark to line up must be at least 1");

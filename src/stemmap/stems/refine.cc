@@ -342,11 +342,11 @@ int AddStemsWithoutPart(const MeasureOptions& o, std::vector<Stem> candidates,
     RefinedStem r = refine(std::move(c));
     spdlog::debug(
         "stems: stem without a part at ({:.2f}, {:.2f}): verdict {}, sharp {}, whole {}, "
-        "seen apart {}, whole where no nearer stem hid a side {}, agrees with votes {}; sides "
-        "clear of nearer stems in {} and {} views",
+        "seen apart {}, whole where no nearer stem hid a side {}, agrees with votes {}, on the "
+        "cloud's surface {}; sides clear of nearer stems in {} and {} views",
         r.stem.centre_xy.x(), r.stem.centre_xy.y(), static_cast<int>(r.verdict), r.sharp, r.whole,
-        r.seen_apart, r.whole_where_open, r.agrees_with_votes, r.stem.evidence.clear_side_views[0],
-        r.stem.evidence.clear_side_views[1]);
+        r.seen_apart, r.whole_where_open, r.agrees_with_votes, r.on_cloud_surface,
+        r.stem.evidence.clear_side_views[0], r.stem.evidence.clear_side_views[1]);
     // Both sides in half the views to a couple of pixels stand as a part's core would alone.
     // Straight behind a listed stem, each side in views of its own on one circle stands too:
     // the nearer stem hides one side from each end of the arm (SidesSeenApart). Where its bark
@@ -355,8 +355,10 @@ int AddStemsWithoutPart(const MeasureOptions& o, std::vector<Stem> candidates,
     // straight behind).
     const bool whole_where_open = o.larger_cloud_whole_where_open && r.whole_where_open &&
                                   r.stem.dbh_m >= 0.01 * o.min_dbh_cm;
+    // Or where the cloud's rays end on the fitted circle: the surface is there.
     if (r.verdict != SilhouetteVerdict::kUse ||
-        !(r.sharp || r.whole || r.seen_apart || whole_where_open || r.agrees_with_votes)) {
+        !(r.sharp || r.whole || r.seen_apart || whole_where_open || r.agrees_with_votes ||
+          r.on_cloud_surface)) {
       continue;
     }
     r.stem.flags.Set(StemFlag::kSilhouetteOnly);
@@ -624,7 +626,7 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
                            const std::vector<StampedPose>& keyframes,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
                            std::vector<Stem>* stems, std::vector<Stem> larger_cloud_only,
-                           std::vector<Stem> voted) {
+                           std::vector<Stem> voted, const CloudSurfaceAt& on_cloud_surface) {
   // Silhouettes at the video's own resolution where the front end kept it, else the working one.
   std::vector<cv::Mat> gray = std::move(gray_full);
   PinholeCamera camera = bgr_camera;
@@ -849,6 +851,10 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     }
     RefinedStem refined{verdict, std::move(s), clean, whole, agrees, sharp, seen_apart};
     refined.agrees_with_votes = agrees_with_votes;
+    // The bark must line up on it, or be too little seen to say: a sapling's leafy crown gives
+    // the cloud a surface too, and its inside lines up nowhere.
+    const bool bark_allows = bark.ok || bark.pairs < o.bark_depth.min_pairs;
+    refined.on_cloud_surface = bark_allows && on_cloud_surface && on_cloud_surface(centre, radius);
     refined.whole_where_open =
         clean && bark.ok && f.open_views < f.tried_views && 2 * f.two_sided_views >= f.open_views;
     return refined;

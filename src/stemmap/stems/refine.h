@@ -90,6 +90,10 @@ struct RefinedStem {
   // A stem the silhouettes' votes alone gave, whose fit agrees with their circle
   // (FitAgreesWithVotes).
   bool agrees_with_votes = false;
+  // The cloud's rays end on the fitted circle and few pass it (MeasureOptions::
+  // fit_on_cloud_max_pass_through): its surface is there, whatever part the cloud made of it.
+  // And its bark lines up on the fit, or too few pairs of views show it to say.
+  bool on_cloud_surface = false;
 };
 struct PartOutcome {
   int fitted = 0;      // stems placed by their silhouettes
@@ -235,10 +239,14 @@ void WidthsFromStand(const MeasureOptions& o, std::vector<Stem>* stems);
 // silhouettes (MeasureOptions::larger_cloud_only_max_rms_px), flagged silhouette_only; `voted`
 // (the silhouettes' votes, most first) after them on the same terms, clear of the listed stems
 // by SilhouetteVoteOptions::min_gap_to_listed_m.
+// Whether the cloud's surface stands on a circle (centre, radius_m) at breast height.
+using CloudSurfaceAt = std::function<bool(const Eigen::Vector2d& centre, double radius_m)>;
+
 void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_camera,
                            const std::vector<StampedPose>& keyframes,
                            std::vector<cv::Mat> gray_full, const std::vector<cv::Mat>& bgr,
                            std::vector<Stem>* stems, std::vector<Stem> larger_cloud_only = {},
-                           std::vector<Stem> voted = {});
+                           std::vector<Stem> voted = {},
+                           const CloudSurfaceAt& on_cloud_surface = {});
 
 }  // namespace stemmap::stems

@@ -481,6 +481,28 @@ TEST(AddStemsWithoutPart, VotedCandidatesClearOfListedStemsUpToTheirCount) {
   EXPECT_EQ(kept[1].flags.Names(), std::vector<std::string_view>{"silhouette_only"});
 }
 
+// A stem without a part of its own whose fit is neither sharp nor whole is listed where the
+// cloud's rays end on its fitted circle (a near stem whose part the free-space veto rejected).
+TEST(AddStemsWithoutPart, ListsAFitOnTheCloudsSurface) {
+  const MeasureOptions o;
+  std::vector<Stem> kept;
+  std::vector<Eigen::Vector3d> occluders;
+  const std::vector<Stem> candidates = {Fitted(-1.0, 1.6, 0.3, 0.0),   // on the surface
+                                        Fitted(5.0, -2.0, 0.2, 0.0)};  // rays pass it
+  const int added = AddLargerCloudOnlyStems(
+      o, candidates,
+      [&](Stem s) {
+        RefinedStem r{SilhouetteVerdict::kUse, std::move(s)};
+        r.on_cloud_surface = r.stem.centre_xy.y() > 0;
+        return r;
+      },
+      &kept, &occluders);
+  EXPECT_EQ(added, 1);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].centre_xy.x(), -1.0);
+  EXPECT_EQ(kept[0].flags.Names(), std::vector<std::string_view>{"silhouette_only"});
+}
+
 // A fit the bark rejected, with its silhouettes' counts (no side hidden in any view).
 TangentFit RejectedFit(int rays, int two_sided_views, int tried_views) {
   TangentFit f;

@@ -193,10 +193,10 @@ double SliceWidth(const std::vector<Eigen::Vector2d>& pts, const Eigen::Vector2d
   return Quantile(s, 0.97) - Quantile(s, 0.03);
 }
 
-// Rays (origin -> point, in 2-D) that cross the stem's disc and end well beyond it, over rays
-// that end on the stem: a real trunk blocks the view.
+}  // namespace
+
 double PassThroughRatio(const std::vector<const dense::CloudPoint*>& band, const Eigen::Vector2d& c,
-                        double r) {
+                        double r, int* hits_out) {
   int through = 0, hits = 0;
   const double inner = 0.7 * r;
   for (const dense::CloudPoint* p : band) {
@@ -215,8 +215,27 @@ double PassThroughRatio(const std::vector<const dense::CloudPoint*>& band, const
       ++through;
     }
   }
+  if (hits_out != nullptr) *hits_out = hits;
   return hits + through > 0 ? static_cast<double>(through) / (hits + through) : 1.0;
 }
+
+std::vector<const dense::CloudPoint*> BandPoints(const StemOptions& o,
+                                                 const std::vector<dense::CloudPoint>& cloud,
+                                                 const GroundGrid& ground,
+                                                 std::vector<double>* height_m) {
+  std::vector<const dense::CloudPoint*> band;
+  for (const dense::CloudPoint& p : cloud) {
+    const double x = p.world.x(), y = p.world.y();
+    if (std::hypot(x, y) > o.search_radius_m) continue;
+    const double h = p.world.z() - ground.FloorHeight(x, y);
+    if (h < o.band_low_m || h > o.band_high_m) continue;
+    band.push_back(&p);
+    if (height_m != nullptr) height_m->push_back(h);
+  }
+  return band;
+}
+
+namespace {
 
 // Connected parts of the occupancy grid of the given band points, cells with >= min_count points.
 std::vector<std::vector<int>> SplitIntoParts(const StemOptions& o,
@@ -613,16 +632,8 @@ StemsResult DetectStems(const StemOptions& o, const std::vector<dense::CloudPoin
   o.Check();
   StemsResult result;
   // Points of the detection band, with their height above the ground.
-  std::vector<const dense::CloudPoint*> band;
   std::vector<double> band_h;
-  for (const dense::CloudPoint& p : cloud) {
-    const double x = p.world.x(), y = p.world.y();
-    if (std::hypot(x, y) > o.search_radius_m) continue;
-    const double h = p.world.z() - ground.FloorHeight(x, y);
-    if (h < o.band_low_m || h > o.band_high_m) continue;
-    band.push_back(&p);
-    band_h.push_back(h);
-  }
+  const std::vector<const dense::CloudPoint*> band = BandPoints(o, cloud, ground, &band_h);
   // Parts of the band: connected occupied cells. A part too wide to be one stem (two trunks
   // smeared together by depth noise) is split again on its denser cells.
   std::vector<std::vector<int>> parts;

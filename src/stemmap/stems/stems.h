@@ -234,6 +234,19 @@ std::vector<Stem> StemsAwayFrom(std::span<const Stem> more, double gap_m,
 StemsResult DetectStems(const StemOptions& options, const std::vector<dense::CloudPoint>& cloud,
                         const GroundGrid& ground, double depth_focal_px = 0.0);
 
+// The detection band: the cloud's points within search_radius_m of the axis, band_low_m to
+// band_high_m above the ground there; their heights in `height_m` where given.
+std::vector<const dense::CloudPoint*> BandPoints(const StemOptions& options,
+                                                 const std::vector<dense::CloudPoint>& cloud,
+                                                 const GroundGrid& ground,
+                                                 std::vector<double>* height_m = nullptr);
+
+// Of the band's rays (origin -> point, in 2-D) that meet the disc (c, r), the share that pass
+// through it and end well beyond; the rest end on it (`hits`, where given, counts those). A real
+// trunk blocks the view, so a high share vetoes a part. 1 where no ray meets the disc.
+double PassThroughRatio(const std::vector<const dense::CloudPoint*>& band, const Eigen::Vector2d& c,
+                        double r, int* hits = nullptr);
+
 // Circle through 2-D points: algebraic start, then robust geometric refinement. Returns false
 // with fewer than 3 points. `rms_m` is the residual spread.
 bool FitCircle(const std::vector<Eigen::Vector2d>& pts, Eigen::Vector2d* centre, double* radius,
