@@ -851,10 +851,12 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     }
     RefinedStem refined{verdict, std::move(s), clean, whole, agrees, sharp, seen_apart};
     refined.agrees_with_votes = agrees_with_votes;
-    // The bark must line up on it, or be too little seen to say: a sapling's leafy crown gives
-    // the cloud a surface too, and its inside lines up nowhere.
+    // For a stem without a part of its own (a part stands on its own surface): the bark must
+    // line up on it, or be too little seen to say, as a sapling's leafy crown gives the cloud a
+    // surface too, and its inside lines up nowhere.
     const bool bark_allows = bark.ok || bark.pairs < o.bark_depth.min_pairs;
-    refined.on_cloud_surface = bark_allows && on_cloud_surface && on_cloud_surface(centre, radius);
+    refined.on_cloud_surface = !outline_may_outweigh_bark && bark_allows && on_cloud_surface &&
+                               on_cloud_surface(centre, radius);
     refined.whole_where_open =
         clean && bark.ok && f.open_views < f.tried_views && 2 * f.two_sided_views >= f.open_views;
     return refined;

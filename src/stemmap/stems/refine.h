@@ -92,7 +92,8 @@ struct RefinedStem {
   bool agrees_with_votes = false;
   // The cloud's rays end on the fitted circle and few pass it (MeasureOptions::
   // fit_on_cloud_max_pass_through): its surface is there, whatever part the cloud made of it.
-  // And its bark lines up on the fit, or too few pairs of views show it to say.
+  // And its bark lines up on the fit, or too few pairs of views show it to say. Judged only for
+  // a stem without a part of its own (AddStemsWithoutPart); a part's own surface is its part.
   bool on_cloud_surface = false;
 };
 struct PartOutcome {
