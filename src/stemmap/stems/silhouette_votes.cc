@@ -38,6 +38,10 @@ void SilhouetteVoteOptions::Check() const {
   if (!(neighbour_baseline_m > 0)) {
     throw InputError("the silhouette votes' neighbour baseline must be positive");
   }
+  if (!(short_baseline_m >= 0 && short_baseline_m < neighbour_baseline_m)) {
+    throw InputError(
+        "the silhouette votes' short baseline must lie in [0, the neighbour baseline) m");
+  }
   if (side_patch_px < 3 || side_guard_px < 0) {
     throw InputError("a silhouette side's patch needs at least 3 columns and no negative guard");
   }
@@ -53,6 +57,9 @@ void SilhouetteVoteOptions::Check() const {
     throw InputError("a silhouette vote candidate's votes on each side must not be negative");
   }
   if (min_votes < 1) throw InputError("a silhouette vote candidate needs at least one vote");
+  if (min_cell_votes < 1 || min_cell_votes > min_votes) {
+    throw InputError("a silhouette vote grid's cell needs between one vote and min_votes");
+  }
   if (!(agree_radius_share >= 0 && agree_radius_m >= 0 && agree_min_two_sided_views >= 0)) {
     throw InputError("the silhouette votes' agreement with a fit must not be negative");
   }
@@ -404,10 +411,16 @@ std::vector<SilhouetteRay> FindSilhouetteRays(const SilhouetteVoteOptions& o,
     const AzimuthStrip& a = strips[k];
     const std::array<int, 2> neighbours = {NeighbourAlong(strips, k, -1, o.neighbour_baseline_m),
                                            NeighbourAlong(strips, k, 1, o.neighbour_baseline_m)};
+    std::array<int, 2> nearer = {-1, -1};
+    for (int side = 0; side < 2 && o.short_baseline_m > 0; ++side) {
+      const int j = NeighbourAlong(strips, k, 2 * side - 1, o.short_baseline_m);
+      if (j != neighbours[side]) nearer[side] = j;
+    }
+    const bool any_nearer = nearer[0] >= 0 || nearer[1] >= 0;
     for (const double edge : StripEdges(o, a)) {
-      if (const auto ray = RayFromEdge(o, strips, k, neighbours, edge, az_step)) {
-        per_view[k].push_back(*ray);
-      }
+      std::optional<SilhouetteRay> ray = RayFromEdge(o, strips, k, neighbours, edge, az_step);
+      if (!ray && any_nearer) ray = RayFromEdge(o, strips, k, nearer, edge, az_step);
+      if (ray) per_view[k].push_back(*ray);
     }
   }
   std::vector<SilhouetteRay> rays;
@@ -451,12 +464,12 @@ class VoteGrid {
     }
   }
 
-  // Cells with at least min_votes between min_range_m and search_radius_m of the plot centre,
+  // Cells with at least min_cell_votes between min_range_m and search_radius_m of the plot centre,
   // most votes first (ties in the grid's order), at most max_peaks.
   std::vector<VoteCandidate> Peaks(double search_radius_m, size_t max_peaks) const {
     std::vector<std::pair<int, size_t>> cells;  // votes, index
     for (size_t i = 0; i < votes_.size(); ++i) {
-      if (votes_[i] < o_.min_votes) continue;
+      if (votes_[i] < o_.min_cell_votes) continue;
       const double range = Centre(i).norm();
       if (range >= o_.min_range_m && range <= search_radius_m) cells.emplace_back(votes_[i], i);
     }

@@ -47,6 +47,10 @@ struct SilhouetteVoteOptions {
   // least min_parallax_step_px (a texture's edge moves with its surface on both sides). A side
   // this flat (grey levels' SD) is far: sky, or a far canopy's shade.
   double neighbour_baseline_m = 0.12;
+  // Where neither of those tells the sides apart, the keyframes this far along (m; 0: none): a
+  // stem seen past a nearer one shows only between that stem and the picture's border, over a
+  // shorter stretch of the arm than the baseline, so both neighbours lose it.
+  double short_baseline_m = 0.04;
   int side_patch_px = 7;
   int side_guard_px = 2;
   double max_parallax_px = 60.0;
@@ -62,6 +66,10 @@ struct SilhouetteVoteOptions {
   // candidates stand at least this far apart (m).
   int min_votes = 8;
   int min_votes_each_side = 3;
+  // A cell of the vote grid is refined into a candidate from this many votes (no more than
+  // min_votes): a stem seen in few views from a short stretch of the arm scatters its votes
+  // over neighbouring cells along the line of sight, and meets min_votes only once refined.
+  int min_cell_votes = 6;
   // A candidate stands on its silhouettes' fit (TangentFit, from the neighbours' disagreement,
   // not from brightness steps) where that fit agrees with the votes' circle: its radius within
   // this share of the votes' and this much more (m), its centre within the votes' radius (and a
@@ -77,10 +85,10 @@ struct SilhouetteVoteOptions {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     SilhouetteVoteOptions, max_candidates, min_gap_to_listed_m, cell_m, min_radius_m, max_radius_m,
     radius_step_m, min_range_m, strip_rows, strip_half_height_m, strip_range_m, min_edge_step,
-    min_edge_straightness, neighbour_baseline_m, side_patch_px, side_guard_px, max_parallax_px,
-    min_side_ncc, min_parallax_step_px, flat_side_sd, parallax_sd_px, min_vote_span_m, min_votes,
-    min_votes_each_side, min_separation_m, agree_radius_share, agree_radius_m,
-    agree_min_two_sided_views)
+    min_edge_straightness, neighbour_baseline_m, short_baseline_m, side_patch_px, side_guard_px,
+    max_parallax_px, min_side_ncc, min_parallax_step_px, flat_side_sd, parallax_sd_px,
+    min_vote_span_m, min_votes, min_votes_each_side, min_cell_votes, min_separation_m,
+    agree_radius_share, agree_radius_m, agree_min_two_sided_views)
 
 // A silhouette in the plot plane: the camera centre, the ray's azimuth, the side the nearer
 // surface lies on (+1 left of the ray looking along it, -1 right) and the distance along the ray

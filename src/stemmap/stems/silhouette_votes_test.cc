@@ -56,6 +56,10 @@ TEST(SilhouetteVoteOptions, EveryFieldIsChecked) {
   throws([](SilhouetteVoteOptions& o) { o.min_edge_step = 0; });
   throws([](SilhouetteVoteOptions& o) { o.min_edge_straightness = 1.5; });
   throws([](SilhouetteVoteOptions& o) { o.neighbour_baseline_m = 0; });
+  throws([](SilhouetteVoteOptions& o) { o.short_baseline_m = -0.01; });
+  throws([](SilhouetteVoteOptions& o) { o.short_baseline_m = o.neighbour_baseline_m; });
+  throws([](SilhouetteVoteOptions& o) { o.min_cell_votes = 0; });
+  throws([](SilhouetteVoteOptions& o) { o.min_cell_votes = o.min_votes + 1; });
   throws([](SilhouetteVoteOptions& o) { o.side_patch_px = 2; });
   throws([](SilhouetteVoteOptions& o) { o.max_parallax_px = 0.5; });
   throws([](SilhouetteVoteOptions& o) { o.min_side_ncc = 2; });
@@ -207,6 +211,30 @@ TEST(FindSilhouetteRays, AStemBehindANearerOneGathersVotesOfItsOwn) {
   }
 }
 
+// A stem 8 m out, a degree round from a nearer one 3 m out, that shows whole, clear of it, only
+// between that stem and the picture's border, over six keyframes (12 degrees of the arm, under
+// twice the neighbours' baseline): at the ends of that stretch the neighbours at
+// neighbour_baseline_m see the nearer stem or the border where its sides were, the keyframes at
+// short_baseline_m see them. Over a range of bearings, its silhouettes meet near it.
+TEST(FindSilhouetteRays, AStemShownBrieflyBesideANearerOneGathersVotes) {
+  const SilhouetteVoteOptions o;
+  for (const double bearing_deg : {18.0, 22.0, 26.0}) {
+    const double bearing = bearing_deg * M_PI / 180;
+    const Eigen::Vector2d far = 8.0 * Eigen::Vector2d(std::cos(bearing), std::sin(bearing));
+    const Eigen::Vector2d near =
+        3.0 * Eigen::Vector2d(std::cos(bearing + 0.02), std::sin(bearing + 0.02));
+    const RenderedStem scene =
+        RenderStems({{near.x(), near.y(), 0.15}, {far.x(), far.y(), 0.15}}, true, false,
+                    Texture::kIrregular, PinholeCamera::FromHfov(960, 540, 67.0));
+    const std::vector<VoteCandidate> found =
+        VoteStemCentres(o, FindSilhouetteRays(o, scene.camera, scene.keyframes, scene.gray), 11.0);
+    const bool met = std::ranges::any_of(found, [&](const VoteCandidate& c) {
+      return (c.centre_xy - far).norm() < 0.5 && std::abs(c.radius_m - 0.15) < 0.03;
+    });
+    EXPECT_TRUE(met) << bearing_deg << " deg";
+  }
+}
+
 // A stem behind a sapling's leaf clump at breast height, over a range of offsets where both of
 // its sides show past the leaves from some arm positions: its silhouettes meet at it.
 TEST(FindSilhouetteRays, AStemBehindALeafClumpGathersVotes) {
@@ -223,6 +251,25 @@ TEST(FindSilhouetteRays, AStemBehindALeafClumpGathersVotes) {
       return (c.centre_xy - stem).norm() < 0.15 && std::abs(c.radius_m - 0.15) < 0.03;
     });
     EXPECT_TRUE(met) << offset_m;
+  }
+}
+
+// A stem seen whole from a short stretch of the arm (five keyframes over 0.12 rad), each
+// silhouette's bearing off by 2 mrad (15 mm at the stem) one way or the other: the rays cross at
+// shallow angles and spread their votes over neighbouring cells, none of some stems' holding
+// min_votes; refined from a cell with min_cell_votes, they meet near the stem, at its radius.
+TEST(VoteStemCentres, FewViewsFromAShortArcMeetOnceRefined) {
+  const SilhouetteVoteOptions o;
+  for (const double bearing : {0.3, 0.7, 1.1}) {
+    const Eigen::Vector2d centre = 8.0 * Eigen::Vector2d(std::cos(bearing), std::sin(bearing));
+    std::vector<SilhouetteRay> rays =
+        TangentRays(centre, 0.09, bearing - 0.16, bearing - 0.04, 5, 0.5);
+    for (size_t i = 0; i < rays.size(); ++i) rays[i].azimuth_rad += (i % 3 == 0 ? 1 : -1) * 2e-3;
+    const std::vector<VoteCandidate> found = VoteStemCentres(o, rays, 11.0);
+    const bool met = std::ranges::any_of(found, [&](const VoteCandidate& c) {
+      return (c.centre_xy - centre).norm() < 0.5 && std::abs(c.radius_m - 0.09) < 0.03;
+    });
+    EXPECT_TRUE(met) << bearing;
   }
 }
 
