@@ -617,8 +617,9 @@ bool OutlineOutweighsPlainBark(const MeasureOptions& o, const TangentFit& fit,
 }
 
 bool WideFitLinesUpOnBark(const MeasureOptions& o, const TangentFit& fit, const BarkDepth& bark,
-                          double cloud_radius_m) {
+                          double cloud_radius_m, bool cloud_behind_nearer) {
   if (!(fit.radius_m > o.wide_fit_scale * cloud_radius_m)) return true;
+  if (cloud_behind_nearer && bark.pairs < o.bark_depth.min_pairs) return true;
   return bark.pairs >= o.bark_depth.min_pairs && bark.peak_ncc >= o.wide_fit_min_bark_ncc;
 }
 
@@ -724,7 +725,8 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       f = outline;
     }
     // (Not asked of a fit held on its face: the cloud saw a sliver of it, its width no bound.)
-    if (f.ok && !on_face && !WideFitLinesUpOnBark(o, f, bark, r0)) {
+    if (f.ok && !on_face &&
+        !WideFitLinesUpOnBark(o, f, bark, r0, InShadowOfNearerStem(kept, s.centre_xy))) {
       spdlog::debug(
           "stems: ({:.2f}, {:.2f}) fit r {:.3f} over r0 {:.3f}: its bark does not show it "
           "(ncc {:.2f}, {} pairs)",

@@ -222,9 +222,12 @@ bool OutlineOutweighsPlainBark(const MeasureOptions& o, const TangentFit& fit,
 
 // Whether a fit has the bark to show for its width: true unless it is over
 // MeasureOptions::wide_fit_scale times `cloud_radius_m` and its bark lines up to under
-// wide_fit_min_bark_ncc, or over too few pairs to tell.
+// wide_fit_min_bark_ncc, or over too few pairs to tell. With `cloud_behind_nearer` (the cloud's
+// part lies straight behind a listed stem, InShadowOfNearerStem), too few pairs let it stand: the
+// cloud saw a sliver of the stem past the nearer one, a width that bounds nothing, and the bark
+// the same few views show.
 bool WideFitLinesUpOnBark(const MeasureOptions& o, const TangentFit& fit, const BarkDepth& bark,
-                          double cloud_radius_m);
+                          double cloud_radius_m, bool cloud_behind_nearer = false);
 
 // The DBH of each stem a nearer one hides one side of (Stem::dbh_hidden_max_m > 0, set by
 // RefineWithTangentRays): the mean of the other listed stems' DBH between its seen width and the

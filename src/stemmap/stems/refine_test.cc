@@ -316,6 +316,14 @@ TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
   EXPECT_FALSE(WideFitLinesUpOnBark(o, f, bark, 0.044));
   bark.peak_ncc = 0.38;
   EXPECT_TRUE(WideFitLinesUpOnBark(o, f, bark, 0.05));  // under twice the cloud's radius
+  // Straight behind a listed stem the cloud saw a sliver: too few pairs to tell let the fit
+  // stand; bark that fails to line up over enough pairs still does not.
+  for (const int pairs : {0, o.bark_depth.min_pairs - 1}) {
+    bark.pairs = pairs;
+    EXPECT_TRUE(WideFitLinesUpOnBark(o, f, bark, 0.044, true)) << pairs;
+  }
+  bark.pairs = o.bark_depth.min_pairs;
+  EXPECT_FALSE(WideFitLinesUpOnBark(o, f, bark, 0.044, true));
 }
 
 // Sharp (both sides in three views to half a pixel) or whole (both sides in half its views, on
