@@ -411,15 +411,16 @@ std::vector<SilhouetteRay> FindSilhouetteRays(const SilhouetteVoteOptions& o,
     const AzimuthStrip& a = strips[k];
     const std::array<int, 2> neighbours = {NeighbourAlong(strips, k, -1, o.neighbour_baseline_m),
                                            NeighbourAlong(strips, k, 1, o.neighbour_baseline_m)};
-    std::array<int, 2> nearer = {-1, -1};
+    // The keyframes short_baseline_m along, asked where those at the baseline cannot tell.
+    std::array<int, 2> close_neighbours = {-1, -1};
     for (int side = 0; side < 2 && o.short_baseline_m > 0; ++side) {
       const int j = NeighbourAlong(strips, k, 2 * side - 1, o.short_baseline_m);
-      if (j != neighbours[side]) nearer[side] = j;
+      if (j != neighbours[side]) close_neighbours[side] = j;
     }
-    const bool any_nearer = nearer[0] >= 0 || nearer[1] >= 0;
+    const bool any_close = close_neighbours[0] >= 0 || close_neighbours[1] >= 0;
     for (const double edge : StripEdges(o, a)) {
       std::optional<SilhouetteRay> ray = RayFromEdge(o, strips, k, neighbours, edge, az_step);
-      if (!ray && any_nearer) ray = RayFromEdge(o, strips, k, nearer, edge, az_step);
+      if (!ray && any_close) ray = RayFromEdge(o, strips, k, close_neighbours, edge, az_step);
       if (ray) per_view[k].push_back(*ray);
     }
   }
