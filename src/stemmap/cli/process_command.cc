@@ -97,8 +97,9 @@ void AddProcessCommand(CLI::App& app) {
                       "(its output folder) instead of tracking the video again")
           ->check(CLI::ExistingDirectory);
   // What only tracking uses cannot be changed for a reused track.
-  for (const char* name : {"--arm-radius", "--hfov", "--calibration", "--focal", "--camera-height",
-                           "--working-size", "--track-fps", "--readout-ms", "--threads"}) {
+  for (const char* name :
+       {"--arm-radius", "--hfov", "--calibration", "--focal", "--camera-height", "--vertical",
+        "--working-size", "--track-fps", "--readout-ms", "--threads"}) {
     from_track->excludes(sub->get_option(name));
   }
   AddMeasureFlags(sub, opt.get());

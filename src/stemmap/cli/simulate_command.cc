@@ -37,6 +37,9 @@ void AddSimulateCommand(CLI::App& app) {
   sub->add_option("--fps", opt->fps, "Frames per second")->capture_default_str();
   sub->add_option("--seconds", opt->seconds, "Clip length (default: 40-50 s from the seed)");
   sub->add_option("--turns", opt->turns, "Arm turns over the clip (default: 1.05-1.15)");
+  sub->add_option("--stand-tilt", opt->stand_tilt_deg,
+                  "The tripod's axis from the vertical, degrees (default: 0-1.5 from the seed, a "
+                  "tripod set up by eye; one levelled with its bubble: about 0.1)");
   sub->add_option("--start-deg", opt->start_deg,
                   "Bearing of the first view in the stand's frame, degrees counter-clockwise from "
                   "its x: another capture of the same stand (same seed)")

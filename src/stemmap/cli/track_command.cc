@@ -33,6 +33,10 @@ void AddTrackOptions(CLI::App* sub, track::TrackOptions* opt, std::filesystem::p
   sub->add_option("--camera-height", opt->camera_height_m,
                   "Arm height above the ground at the tripod, measured (m; default: estimated "
                   "from the ground in view)");
+  AddEnumOption(sub, "--vertical", &opt->vertical_from, track::kVerticalSourceNames,
+                "Where \"up\" comes from: trunks (the mean direction of the trunks' edges; trees "
+                "lean, so it may be a few tenths of a degree off) or axis (the arm's rotation "
+                "axis: only for a tripod levelled with its bubble before the turn)");
   sub->add_option("--working-size", opt->frontend.working_long_side_px,
                   "Long side of the tracking resolution (px)")
       ->capture_default_str();

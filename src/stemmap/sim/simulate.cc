@@ -93,6 +93,7 @@ void SimulateOptions::Check() const {
   if (!(fps >= 1 && fps <= 120)) throw InputError(fmt::format("fps {} out of [1, 120]", fps));
   if (seconds < 0 || seconds > 600) throw InputError("seconds must be in (0, 600]");
   if (turns < 0 || turns > 3) throw InputError("turns must be in (0, 3]");
+  if (!(stand_tilt_deg <= 10)) throw InputError("the stand's tilt must be at most 10 degrees");
   if (!(arm_radius_m >= 0.2 && arm_radius_m <= 3.0)) {
     throw InputError(fmt::format("arm radius {} m out of [0.2, 3]", arm_radius_m));
   }
@@ -136,6 +137,7 @@ void to_json(nlohmann::json& j, const SimulateOptions& o) {
        {"seconds", o.seconds},
        {"turns", o.turns},
        {"arm_radius_m", o.arm_radius_m},
+       {"stand_tilt_deg", o.stand_tilt_deg},
        {"hfov_deg", o.hfov_deg},
        {"k1", o.k1},
        {"k2", o.k2},
@@ -209,7 +211,8 @@ SimulateSummary RunSimulate(const SimulateOptions& o) {
   rig.seconds = o.seconds > 0 ? o.seconds : rng.Uniform(40.0, 50.0);
   rig.turns = o.turns > 0 ? o.turns : rng.Uniform(1.05, 1.15);
   rig.fps = o.fps;
-  rig.stand_tilt_deg = rng.Uniform(0.0, 1.5);
+  rig.stand_tilt_deg = rng.Uniform(0.0, 1.5);  // drawn always: the draws after stay the seed's
+  if (o.stand_tilt_deg >= 0) rig.stand_tilt_deg = o.stand_tilt_deg;
   rig.stand_tilt_azimuth_rad = rng.Uniform(0, 2 * std::numbers::pi);
   rig.mount_pitch_deg = std::clamp(rng.Normal(0, 1.5), -3.0, 3.0);
   rig.mount_roll_deg = std::clamp(rng.Normal(0, 0.8), -1.5, 1.5);

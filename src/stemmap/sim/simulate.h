@@ -21,6 +21,10 @@ struct SimulateOptions {
   double seconds = 0.0;  // 0: 40-50 s
   double turns = 0.0;    // 0: 1.05-1.15
   double arm_radius_m = 1.0;
+  // The tripod's axis from the vertical (degrees; in a direction drawn from the seed). Negative:
+  // 0-1.5 drawn from the seed, a tripod set up by eye; one levelled with its bubble is within
+  // about 0.1.
+  double stand_tilt_deg = -1.0;
   double hfov_deg = 0.0;  // 0: 60-75°; the field through the lens, between the image's sides
   // Radial distortion of the simulated lens (OpenCV's k1, k2, k3 on normalised coordinates).
   double k1 = 0.0, k2 = 0.0, k3 = 0.0;

@@ -122,6 +122,28 @@ TEST(Simulate, RefusesACentreOffTheStand) {
   EXPECT_THROW(o.Check(), InputError);
 }
 
+// A tripod levelled with its bubble: the stand's tilt as given, everything else the seed's.
+TEST(Simulate, AGivenStandTiltKeepsTheSeedsOtherDraws) {
+  SimulateOptions o;
+  o.seed = 4;
+  o.truth_only = true;
+  o.fps = 5;
+  o.out_dir = fs::path(::testing::TempDir()) / "stemmap_simulate_tilt";
+  RunSimulate(o);
+  const nlohmann::json drawn = ReadJsonFile(o.out_dir / "truth.json");
+  o.stand_tilt_deg = 0.1;
+  RunSimulate(o);
+  const nlohmann::json levelled = ReadJsonFile(o.out_dir / "truth.json");
+  EXPECT_DOUBLE_EQ(levelled["rig"]["stand_tilt_deg"].get<double>(), 0.1);
+  EXPECT_NE(drawn["rig"]["stand_tilt_deg"].get<double>(), 0.1);
+  EXPECT_EQ(levelled["rig"]["mount_roll_deg"], drawn["rig"]["mount_roll_deg"]);
+  EXPECT_EQ(levelled["camera_height_m"], drawn["camera_height_m"]);
+  o.stand_tilt_deg = 12.0;
+  EXPECT_THROW(o.Check(), InputError);
+  o.stand_tilt_deg = std::nan("");
+  EXPECT_THROW(o.Check(), InputError);
+}
+
 // A board video has no plot truth to write alone.
 TEST(Simulate, RefusesABoardVideoWithTruthOnly) {
   SimulateOptions o;

@@ -345,9 +345,12 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
         "track: no ground plane found; assuming the camera at 1.3 m (give --camera-height)");
   }
   const Eigen::Vector3d forward0 = map.cam_from_world[0].conjugate() * Eigen::Vector3d::UnitZ();
-  const VerticalEstimate vertical = EstimateVertical(o.vertical, f.keyframes, map, r.camera);
-  if (!vertical.found) {
-    spdlog::warn("track: too few trunk edges to find the vertical; using the rotation axis");
+  VerticalEstimate vertical;  // the axis, for a levelled tripod
+  if (o.vertical_from == VerticalSource::kTrunks) {
+    vertical = EstimateVertical(o.vertical, f.keyframes, map, r.camera);
+    if (!vertical.found) {
+      spdlog::warn("track: too few trunk edges to find the vertical; using the rotation axis");
+    }
   }
   r.plot_from_axis = PlotFromAxis(vertical.up_axis, ground_z, forward0);
   timing["plot_frame_s"] = clock.Lap();
@@ -420,6 +423,7 @@ TrackResult TrackInto(const TrackOptions& o, const std::filesystem::path& video,
   s["camera_height_m"] = -ground_z;
   s["camera_height_source"] = o.camera_height_m > 0 ? "measured" : "estimated";
   s["camera_height_estimated_m"] = ground.found ? -ground.height_at_axis_m : 0.0;
+  s["vertical_from"] = VerticalSourceName(o.vertical_from);
   s["vertical_found"] = vertical.found;
   s["vertical_segments"] = vertical.segments;
   s["vertical_trunks"] = vertical.trunks;

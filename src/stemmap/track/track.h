@@ -30,6 +30,16 @@ inline constexpr EnumNames<FocalMode, 3> kFocalModeNames = {
 inline std::string_view FocalModeName(FocalMode m) { return EnumName(kFocalModeNames, m); }
 STEMMAP_ENUM_JSON(FocalMode, kFocalModeNames, "focal mode")
 
+// Where the plot frame's "up" comes from (TrackOptions::vertical_from); in files and on the
+// command line: trunks, axis.
+enum class VerticalSource { kTrunks, kAxis };
+inline constexpr EnumNames<VerticalSource, 2> kVerticalSourceNames = {
+    {{VerticalSource::kTrunks, "trunks"}, {VerticalSource::kAxis, "axis"}}};
+inline std::string_view VerticalSourceName(VerticalSource s) {
+  return EnumName(kVerticalSourceNames, s);
+}
+STEMMAP_ENUM_JSON(VerticalSource, kVerticalSourceNames, "vertical source")
+
 struct TrackOptions {
   double arm_radius_m = 1.0;
   double hfov_deg = kDefaultPhoneHfovDeg;  // used when `calibration` is empty
@@ -46,6 +56,12 @@ struct TrackOptions {
   // ground seen around the plot, which misses any bump right under the tripod (the camera faces
   // outward and sees the ground only from ~4 m out).
   double camera_height_m = 0.0;
+  // The plot frame's "up". kTrunks: the mean direction of the trunks' edges (EstimateVertical),
+  // whatever the tripod's tilt; but trees lean, and on a plot whose trees lean one way more than
+  // another it is 0.2-0.6 degrees off, which puts the ground at stems 10 m out 3-10 cm off.
+  // kAxis: the arm's rotation axis, for a tripod levelled with its bubble before the turn (the
+  // axis is found to about 0.02 degrees; the bubble's own accuracy, about 0.1 degrees, adds).
+  VerticalSource vertical_from = VerticalSource::kTrunks;
   double min_turn_deg = 355.0;  // less than this is not a full turn
   double max_dark_share = 0.5;  // more dark frames than this: too dark
   // Where damaged or missing frames break the tracks, a gap up to this long (s) is bridged at the
@@ -92,7 +108,7 @@ std::string CalibrationFocalWarning(const TrackOptions& options, double apparent
 // Every option, to save beside the outputs and read back (`--options FILE`); a missing key keeps
 // its default.
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(TrackOptions, arm_radius_m, hfov_deg, calibration,
-                                                focal, camera_height_m, min_turn_deg,
+                                                focal, camera_height_m, vertical_from, min_turn_deg,
                                                 max_dark_share, max_bridged_gap_s, bundle_rounds,
                                                 breathing_min_pct, breathing_min_keyframes,
                                                 refine_observations, refine, frontend, loop,
