@@ -110,8 +110,8 @@ struct MeasureOptions {
   // (right fits on simulated plots: median 2.4 mm within 2.5 m of the plot centre, 90 % under
   // 3.2 mm, where 1.2 px at 1080p is 1.5 mm; 3.5 mm at 4.5-6 m). At 2.7 mm a tight fit
   // (tight_fit_rms_px) reaches 3.2 mm: nine right near fits in ten are tight, as a near part
-  // with little surface needs its fit to be (at 2.5 mm, 3.0 mm: a whole 30-cm stem 1.7 m out
-  // whose fit missed by 3.0 mm was dropped). 0: pixels alone.
+  // with little surface needs its fit to be (at 2.5 mm a fifth of right near fits were not, and
+  // such a stem, whole in half its views, was dropped). 0: pixels alone.
   double min_judged_px_m = 0.0027;
   // Within this many times the cloud's radius a wider fit counts as near the cloud's width even
   // when its rays agree less tightly than tight_fit_rms_px; beyond it such a fit caught edges
