@@ -47,6 +47,18 @@ def best_visible_share(t, tree, step=3):
     return best
 
 
+def stem_ground_errors(truth, pairs, pred, run):
+    """The local ground under each matched stem less the truth's (m): both lists give the
+    breast-height point, whose height less the breast height is the ground. `pairs`: evaluate's
+    matched pairs; `pred`: the run's trees.csv rows by tree_id; `run`: its folder."""
+    opts_path = f"{run}/process_options.json"
+    breast_m = (json.load(open(opts_path))["measure"]["stems"]["breast_height_m"]
+                if os.path.exists(opts_path) else 1.37)
+    truth_by_id = {x["id"]: x for x in truth["trees"]}
+    return [float(pred[p["predicted_id"]]["z_m"]) - breast_m -
+            (truth_by_id[p["truth_id"]]["z_m"] - truth["breast_height_m"]) for p in pairs]
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("data")
@@ -68,11 +80,7 @@ def main():
         t = json.load(open(f"{d}/truth.json"))
         pred = {int(r["tree_id"]): r for r in csv.DictReader(open(f"{run}/trees.csv"))}
         plot_summary = json.load(open(f"{run}/summary.json"))["plot"]
-        # Both lists give the breast-height point: its height less the breast height is the ground.
-        opts_path = f"{run}/process_options.json"
-        breast_m = (json.load(open(opts_path))["measure"]["stems"]["breast_height_m"]
-                    if os.path.exists(opts_path) else 1.37)
-        truth_by_id = {x["id"]: x for x in t["trees"]}
+        ground = stem_ground_errors(t, e["pairs"], pred, run)
         matched_truth = {p["truth_id"] for p in e["pairs"]}
         for k in (kind, "all"):
             s = pooled.setdefault(k, {"plots": 0, "truth": 0, "pred": 0, "pairs": [], "half": [0, 0],
@@ -82,9 +90,7 @@ def main():
             s["pred"] += e["n_predicted"]
             for p in e["pairs"]:
                 s["pairs"].append((p, pred[p["predicted_id"]]))
-                s.setdefault("ground", []).append(
-                    float(pred[p["predicted_id"]]["z_m"]) - breast_m -
-                    (truth_by_id[p["truth_id"]]["z_m"] - t["breast_height_m"]))
+            s.setdefault("ground", []).extend(ground)
             for tree in t["trees"]:
                 if tree["dbh_cm"] < 10 or math.hypot(tree["x_m"], tree["y_m"]) > 10:
                     continue

@@ -33,17 +33,16 @@ for kind in $kinds; do
   done
 done
 
-python3 - "$rows" <<'PY'
+python3 - "$rows" "$here" <<'PY'
 import csv, json, math, sys
+sys.path.insert(0, sys.argv[2])
+from judge import stem_ground_errors  # noqa: E402
 
 def ground_errors(plot, out):
     e = json.load(open(f"{out}/eval/evaluation.json"))["raw"]
     t = json.load(open(f"{plot}/truth.json"))
-    breast_m = json.load(open(f"{out}/process_options.json"))["measure"]["stems"]["breast_height_m"]
     pred = {int(r["tree_id"]): r for r in csv.DictReader(open(f"{out}/trees.csv"))}
-    truth = {x["id"]: x for x in t["trees"]}
-    return [float(pred[p["predicted_id"]]["z_m"]) - breast_m -
-            (truth[p["truth_id"]]["z_m"] - t["breast_height_m"]) for p in e["pairs"]], e
+    return stem_ground_errors(t, e["pairs"], pred, out), e
 
 print("| plot | vertical | camera-up error (°) | stem ground error: rms (cm), within 5 cm | recall | DBH MAE (cm) |")
 print("|---|---|---|---|---|---|")
