@@ -18,9 +18,9 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kColumns[] = {
-    "plot_id",     "video",           "arm_radius_m", "hfov_deg",
-    "calibration", "camera_height_m", "plot_centre",  "first_bearing_deg"};
+constexpr const char* kColumns[] = {"plot_id",  "video",       "arm_radius_m",
+                                    "hfov_deg", "calibration", "camera_height_m",
+                                    "vertical", "plot_centre", "first_bearing_deg"};
 
 // Sets the row's cells on top of the defaults; an empty cell keeps the default.
 void ApplyCells(const merge::CsvTable& t, size_t r, const fs::path& base, PlotRow* row) {
@@ -36,6 +36,13 @@ void ApplyCells(const merge::CsvTable& t, size_t r, const fs::path& base, PlotRo
   number("hfov_deg", &track.hfov_deg);
   number("camera_height_m", &track.camera_height_m);
   if (!cell("calibration").empty()) track.calibration = base / cell("calibration");
+  if (!cell("vertical").empty()) {
+    try {
+      track.vertical_from = EnumFromName(track::kVerticalSourceNames, cell("vertical"), "vertical");
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("{} line {}: {}", t.path.string(), t.line_numbers[r], e.what()));
+    }
+  }
   gis::GeoreferenceOptions& g = row->options.georef;
   if (!cell("first_bearing_deg").empty()) {
     g.first_bearing_deg = t.Number(r, t.Column({"first_bearing_deg"}));

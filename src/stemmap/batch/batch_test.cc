@@ -20,14 +20,14 @@ fs::path BatchDir(const std::string& name) {
 }
 
 const char* kHeader =
-    "plot_id,video,arm_radius_m,hfov_deg,calibration,camera_height_m,plot_centre,"
+    "plot_id,video,arm_radius_m,hfov_deg,calibration,camera_height_m,vertical,plot_centre,"
     "first_bearing_deg\n";
 
 TEST(ReadManifest, EmptyCellsTakeTheDefaultsAndPathsAreTheManifests) {
   const fs::path dir = BatchDir("manifest");
   WriteFileAtomic(dir / "m.csv", std::string(kHeader) +
-                                     "p1,videos/p1.mp4,,,,,,\n"
-                                     "p2,p2.mov,1.2,70,phone.yaml,1.31,42.31 -2.52,212\n");
+                                     "p1,videos/p1.mp4,,,,,,,\n"
+                                     "p2,p2.mov,1.2,70,phone.yaml,1.31,axis,42.31 -2.52,212\n");
   pipeline::ProcessOptions defaults;
   defaults.track.arm_radius_m = 0.9;
   const std::vector<PlotRow> rows = ReadManifest(dir / "m.csv", defaults);
@@ -39,6 +39,8 @@ TEST(ReadManifest, EmptyCellsTakeTheDefaultsAndPathsAreTheManifests) {
   EXPECT_EQ(rows[1].options.track.hfov_deg, 70.0);
   EXPECT_EQ(rows[1].options.track.calibration, dir / "phone.yaml");
   EXPECT_EQ(rows[1].options.track.camera_height_m, 1.31);
+  EXPECT_EQ(rows[0].options.track.vertical_from, track::VerticalSource::kTrunks);
+  EXPECT_EQ(rows[1].options.track.vertical_from, track::VerticalSource::kAxis);
   EXPECT_EQ(rows[1].options.georef.centre_lat_deg.value(), 42.31);
   EXPECT_EQ(rows[1].options.georef.centre_lon_deg.value(), -2.52);
   EXPECT_EQ(rows[1].options.georef.first_bearing_deg.value(), 212.0);
@@ -55,11 +57,13 @@ TEST(ReadManifest, SaysWhichLineIsWrong) {
       EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
     }
   };
-  refused(std::string(kHeader) + "p1,a.mp4,,,,,,\np1,b.mp4,,,,,,\n", "line 3: plot_id 'p1'");
-  refused(std::string(kHeader) + "../up,a.mp4,,,,,,\n", "line 2: plot_id '../up'");
-  refused(std::string(kHeader) + "p1,a.mp4,,,,,42.3,\n", "line 2: plot_centre must be `LAT LON`");
-  refused(std::string(kHeader) + "p1,a.mp4,one,,,,,\n", "line 2: column arm_radius_m");
-  refused(std::string(kHeader) + "p1,a.mp4,,,,,42.3 -2.5,\n", "line 2: a plot centre needs");
+  refused(std::string(kHeader) + "p1,a.mp4,,,,,,,\np1,b.mp4,,,,,,,\n", "line 3: plot_id 'p1'");
+  refused(std::string(kHeader) + "../up,a.mp4,,,,,,,\n", "line 2: plot_id '../up'");
+  refused(std::string(kHeader) + "p1,a.mp4,,,,,,42.3,\n", "line 2: plot_centre must be `LAT LON`");
+  refused(std::string(kHeader) + "p1,a.mp4,one,,,,,,\n", "line 2: column arm_radius_m");
+  refused(std::string(kHeader) + "p1,a.mp4,,,,,level,,\n",
+          "line 2: vertical 'level' is not trunks or axis");
+  refused(std::string(kHeader) + "p1,a.mp4,,,,,,42.3 -2.5,\n", "line 2: a plot centre needs");
   refused("plot_id,video,speed\np1,a.mp4,3\n", "unknown column 'speed'");
   refused(std::string(kHeader), "lists no plot");
 }
@@ -79,9 +83,9 @@ void WriteFinishedPlot(const fs::path& dir) {
 TEST(RunBatch, GoesOnPastAFailedPlotAndRedoesNoFinishedOne) {
   const fs::path dir = BatchDir("run");
   WriteFileAtomic(dir / "m.csv", std::string(kHeader) +
-                                     "done,done.mp4,,,,,42.31 -2.52,10\n"
-                                     "missing,nowhere.mp4,,,,,,\n"
-                                     "also_missing,gone.mp4,,,,,,\n");
+                                     "done,done.mp4,,,,,,42.31 -2.52,10\n"
+                                     "missing,nowhere.mp4,,,,,,,\n"
+                                     "also_missing,gone.mp4,,,,,,,\n");
   WriteFinishedPlot(dir / "out" / "done");
   const BatchSummary s = RunBatch({}, dir / "m.csv", dir / "out");
   EXPECT_EQ(s.finished, 1);

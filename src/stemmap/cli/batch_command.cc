@@ -16,7 +16,8 @@ void AddBatchCommand(CLI::App& app) {
   CLI::App* sub = app.add_subcommand(
       "batch",
       "Many plots, one row each of a manifest (plot_id,video,arm_radius_m,hfov_deg,calibration,"
-      "camera_height_m,plot_centre,first_bearing_deg): each plot's run in OUT/<plot_id>/, finished "
+      "camera_height_m,vertical,plot_centre,first_bearing_deg): each plot's run in OUT/<plot_id>/, "
+      "finished "
       "plots not redone, failed ones recorded; batch_summary.csv and plots.gpkg (docs/batch.md)");
   sub->add_option("manifest", *manifest, "The manifest (CSV)")
       ->required()
