@@ -68,6 +68,10 @@ void MeasureOptions::Check() const {
     throw InputError(
         "the two-sided share of a narrower fit whose bark lines up must lie in [0, 0.5]");
   }
+  if (!(whole_in_wide_part_two_sided_share >= 0 && whole_in_wide_part_two_sided_share <= 1)) {
+    throw InputError(
+        "the share of views a fit in a wide part shows both sides in must lie in [0, 1]");
+  }
   if (!(narrower_max_bark_past_outline >= 0)) {
     throw InputError("the share of bark past a narrower fit's outline must not be negative");
   }

@@ -122,6 +122,13 @@ struct MeasureOptions {
   // cloud's width when both its sides show in half the views that tried it, on one circle to
   // about a pixel; where its bark lines up too (BarkDepth::ok), in this share of them.
   double narrower_on_bark_two_sided_share = 0.25;
+  // Narrower still than TangentOptions::narrow_min_share of the cloud's width, a fit stands
+  // where both its sides show in at least this share of the views that tried it (and three), on
+  // one circle to about a pixel (tight_fit_rms_px), its bark lining up on it and the part's
+  // points not going on past its outline (narrower_max_bark_past_outline), and the part's own
+  // circle not lining up on bark: a stem whose part took in what stands beside or behind it (a
+  // sapling's crown, a shrub) several times its width. 0: off.
+  double whole_in_wide_part_two_sided_share = 0.9;
   // A circle inside a stem: a line on its bark (where sunlit bark meets shaded, a mark) and one
   // true outline can stay tangent to one narrower circle across the few degrees the arm sees a
   // far stem over, and its bark lines up on it too. The stem's own points give it away: they go
@@ -205,7 +212,8 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     min_bark_gap_m, larger_cloud_part_gap_m, larger_cloud_only_max_rms_px,
     larger_cloud_whole_where_open, fit_on_cloud_max_pass_through, wide_fit_scale,
     wide_fit_min_bark_ncc, loose_fit_rms_px, tight_fit_rms_px, min_judged_px_m,
-    loose_wider_max_over_cloud, narrower_on_bark_two_sided_share, narrower_max_bark_past_outline,
+    loose_wider_max_over_cloud, narrower_on_bark_two_sided_share,
+    whole_in_wide_part_two_sided_share, narrower_max_bark_past_outline,
     outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share,
     weak_on_bark_max_rms_px, leafy_edge_scatter_m, leafy_edge_scatter_px, leafy_edge_share,
     sides_past_nearer_min_views, one_side_past_nearer_min_views, hidden_side_min_gain,

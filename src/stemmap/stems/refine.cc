@@ -93,7 +93,8 @@ double JudgedPixelM(const MeasureOptions& o, double distance_m, double fx_px) {
 }
 
 SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, const TangentFit& f,
-                                     double px_m, bool bark_lines_up) {
+                                     double px_m, bool bark_lines_up,
+                                     const std::function<bool()>& part_lines_up_on_bark) {
   // A silhouette fit far from the cloud's width locked onto something else (a furrow, a
   // neighbour): keep the cloud's estimate and say so. A stem partly hidden from the stereo
   // pairs is wider than its points: silhouettes on both sides in several views that agree to
@@ -131,6 +132,16 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   const bool narrower_two_sided = two_sided &&
                                   f.two_sided_views >= two_sided_share * f.tried_views &&
                                   inside_part && !inside_stem;
+  // Whole in nearly every view, tight, on bark, however narrow a share of the part
+  // (MeasureOptions::whole_in_wide_part_two_sided_share), unless the part's own circle lines up
+  // on bark: then it is one stem, and the fit holds a sunlit strip of it or a line on its bark
+  // and one outline (its points past the fit lie nearer than the fit's face, where
+  // BarkPastOutlineShare does not count them).
+  const bool whole_in_wide_part =
+      o.whole_in_wide_part_two_sided_share > 0 && f.ok && two_sided && bark_lines_up &&
+      !inside_stem && f.radius_m <= o.tangent.narrow_min_share * r0 &&
+      f.two_sided_views >= o.whole_in_wide_part_two_sided_share * f.tried_views &&
+      !(part_lines_up_on_bark && part_lines_up_on_bark());
   // A sapling's thin stem outlined inside the part its leaves or smear widened
   // (MeasureOptions::sapling_outline_max_dbh_cm).
   const bool sapling_outline =
@@ -154,9 +165,9 @@ SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& s, con
   // keeps near their width (near_cloud), as a fit on a part that is not smeared may.
   const bool smeared_width = f.radius_m > 0.5 * r0 && f.radius_m < 2.0 * r0 &&
                              (f.radius_m <= r0 || two_sided || near_cloud);
-  const bool plausible =
-      f.ok && confirmed &&
-      (sapling_outline || (s.depth_smeared ? smeared_width || narrower_two_sided
+  const bool plausible = f.ok && confirmed &&
+                         (sapling_outline || whole_in_wide_part ||
+                          (s.depth_smeared ? smeared_width || narrower_two_sided
                                            : near_cloud || wider_two_sided || narrower_two_sided));
   if (plausible) return SilhouetteVerdict::kUse;
   if (f.ok && confirmed && s.depth_smeared) return SilhouetteVerdict::kKeepCloud;
@@ -749,8 +760,12 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
                   SideViewsClearOfNearerStems(topt, views, f, breast_z)};
     // Held on its face, the sides seen apart measure it: they bound its width from both sides
     // and the face its range, where the cloud saw a sliver of it (its width no check).
-    SilhouetteVerdict verdict = on_face && f.ok ? SilhouetteVerdict::kUse
-                                                : JudgeSilhouetteFit(o, s, f, judged_px_m, bark.ok);
+    auto part_lines_up_on_bark = [&] {
+      return MeasureBarkDepth(bark_options, topt, views, s.centre_xy, r0, breast_z).ok;
+    };
+    SilhouetteVerdict verdict =
+        on_face && f.ok ? SilhouetteVerdict::kUse
+                        : JudgeSilhouetteFit(o, s, f, judged_px_m, bark.ok, part_lines_up_on_bark);
     if (verdict == SilhouetteVerdict::kDrop && o.keep_bark_confirmed_cloud && !f.ok && f.rays > 0) {
       const BarkDepth cloud_bark =
           MeasureBarkDepth(bark_options, topt, views, s.centre_xy, r0, breast_z);

@@ -38,10 +38,13 @@ double BarkPastOutlineShare(std::span<const Eigen::Vector2d> slice_xy,
                             const Eigen::Vector2d& centre, double radius_m);
 
 // `px_m` is one pixel's footprint at the stem's distance (JudgedPixelM); `bark_lines_up`: the
-// views warped through the fitted circle line up on its bark (BarkDepth::ok).
+// views warped through the fitted circle line up on its bark (BarkDepth::ok);
+// `part_lines_up_on_bark`, asked only of a fit far narrower than the part
+// (MeasureOptions::whole_in_wide_part_two_sided_share): whether the views line up on bark
+// through the part's own circle, which then is one stem as wide as its points.
 SilhouetteVerdict JudgeSilhouetteFit(const MeasureOptions& o, const Stem& stem,
-                                     const TangentFit& fit, double px_m,
-                                     bool bark_lines_up = false);
+                                     const TangentFit& fit, double px_m, bool bark_lines_up = false,
+                                     const std::function<bool()>& part_lines_up_on_bark = {});
 
 // The share of a fit's silhouettes whose bands scatter about their lines by more than
 // MeasureOptions::leafy_edge_scatter_m and leafy_edge_scatter_px (px_m: metres a pixel spans at

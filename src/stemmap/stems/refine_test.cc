@@ -1252,6 +1252,79 @@ TEST(JudgeSilhouetteFit, AThinTwoSidedOutlineInsideAWiderPartIsASapling) {
   EXPECT_EQ(CheckMessage(o2), "the widest sapling's outline must lie in [0, 30] cm");
 }
 
+// A stem 12-20 cm thick whose cloud part took in a sapling's crown or a shrub beside it, three
+// to six times its width: its own fit, both sides in nearly every view on one circle to about a
+// pixel and its bark lining up, stands however narrow a share of the part it is; short of that
+// (fewer two-sided views, a loose fit, bark that does not line up), the part's width stands as
+// before; and a circle as narrow inside a stem of the part's width, on that stem's points, is not
+// taken. Swept over the stem's width and distance, the part's width, the views and the bark.
+TEST(JudgeSilhouetteFit, AStemWholeInNearlyEveryViewStandsInAPartManyTimesItsWidth) {
+  const MeasureOptions o;
+  MeasureOptions off = o;
+  off.whole_in_wide_part_two_sided_share = 0;
+  for (const double distance_m : {2.5, 5.0}) {
+    for (const double stem_cm : {12.0, 16.0, 20.0}) {
+      for (const double times : {3.0, 4.5, 6.0}) {
+        for (const int two_sided : {10, 13, 14, 15}) {
+          for (const bool bark : {false, true}) {
+            for (const double rms_px : {0.5, 2.0}) {
+              Case c;
+              c.stem.centre_xy = {distance_m, 0.0};
+              c.stem.dbh_slice_m = 0.01 * times * stem_cm;
+              c.px_m = distance_m / 1400.0;
+              c.fit.centre = c.stem.centre_xy + Eigen::Vector2d(0.0, 0.3 * c.stem.dbh_slice_m);
+              c.fit.radius_m = 0.005 * stem_cm;
+              c.fit.tried_views = c.fit.views = 15;
+              c.fit.two_sided_views = two_sided;
+              c.fit.rms_m = rms_px * c.px_m;
+              SCOPED_TRACE(::testing::Message()
+                           << stem_cm << " cm at " << distance_m << " m in a part " << times
+                           << " times as wide, two-sided in " << two_sided << " of 15, " << rms_px
+                           << " px, bark " << bark);
+              const bool whole = two_sided >= 0.9 * 15 && bark && rms_px < o.tight_fit_rms_px;
+              const SilhouetteVerdict before = JudgeSilhouetteFit(off, c.stem, c.fit, c.px_m, bark);
+              EXPECT_NE(before, SilhouetteVerdict::kUse);
+              EXPECT_EQ(JudgeSilhouetteFit(o, c.stem, c.fit, c.px_m, bark),
+                        whole ? SilhouetteVerdict::kUse : before);
+            }
+          }
+        }
+      }
+      // A circle a quarter as wide inside a stem of the part's width, hugging one outline: the
+      // stem's points past it lie nearer than its face and do not give it away, the bark of the
+      // part's own circle does.
+      std::mt19937 rng(5);
+      Case inside;
+      inside.stem.centre_xy = {distance_m, 0.0};
+      inside.stem.dbh_slice_m = 0.04 * stem_cm;
+      inside.px_m = distance_m / 1400.0;
+      const double part_radius_m = 0.5 * inside.stem.dbh_slice_m;
+      inside.stem.slice_xy = BarkArc(inside.stem.centre_xy, part_radius_m, 0.005, &rng);
+      const TangentFit inner = CircleInsideStem(inside.stem.centre_xy, part_radius_m, 0.25);
+      inside.fit.centre = inner.centre;
+      inside.fit.radius_m = inner.radius_m;
+      inside.fit.tried_views = inside.fit.views = inside.fit.two_sided_views = 15;
+      inside.fit.rms_m = 0.5 * inside.px_m;
+      int asked = 0;
+      const auto part_is_bark = [&] { return ++asked > 0; };
+      EXPECT_NE(JudgeSilhouetteFit(o, inside.stem, inside.fit, inside.px_m, true, part_is_bark),
+                SilhouetteVerdict::kUse)
+          << stem_cm << " cm at " << distance_m << " m";
+      EXPECT_EQ(asked, 1);
+      // Asked only of a fit that would stand for want of it: not of one at the part's width.
+      inside.fit.radius_m = part_radius_m;
+      inside.fit.centre = inside.stem.centre_xy;
+      EXPECT_EQ(JudgeSilhouetteFit(o, inside.stem, inside.fit, inside.px_m, true, part_is_bark),
+                SilhouetteVerdict::kUse);
+      EXPECT_EQ(asked, 1);
+    }
+  }
+  MeasureOptions bad;
+  bad.whole_in_wide_part_two_sided_share = 1.5;
+  EXPECT_EQ(CheckMessage(bad),
+            "the share of views a fit in a wide part shows both sides in must lie in [0, 1]");
+}
+
 TEST(JudgeSilhouetteFit, RequiringSilhouettesDropsWhatNoneConfirms) {
   Case c;
   c.fit.ok = false;
