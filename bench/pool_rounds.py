@@ -52,7 +52,7 @@ print(f"| rounds | plots | recall | precision | MARE (%) | position RMSE (cm) | 
 print("|---|---|---|---|---|---|---|---|")
 print(f"| {rounds} | {plots} | {hits / truths:.3f} ({hits}/{truths}) | "
       f"{hits / (hits + false_stems):.3f} ({false_stems} false) | {mare_sum / hits:.2f} | "
-      f"{math.sqrt(pos2_sum / hits):.1f} | {covered / judged:.3f} ({covered}/{judged}) | "
+      f"{math.sqrt(pos2_sum / hits):.2f} | {covered / judged:.3f} ({covered}/{judged}) | "
       f"median {sorted(mae['managed'])[len(mae['managed']) // 2]:.2f} / "
       f"{sorted(mae['natural'])[len(mae['natural']) // 2]:.2f}, "
       f"{min(mae['managed']):.2f}–{max(mae['managed']):.2f} / "
