@@ -300,7 +300,7 @@ TEST(OutlineOutweighsPlainBark, OnlyWhereTheCloudSawTheStem) {
   }
 }
 
-TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
+TEST(WideFitLinesUpOnBark, AFitWellOverTheCloudsWidthNeedsItsBark) {
   // A sapling's 8.8-cm part, whose widest start closed on 19.8 cm.
   const MeasureOptions o;
   TangentFit f;
@@ -315,7 +315,18 @@ TEST(WideFitLinesUpOnBark, AFitOverTwiceTheCloudsWidthNeedsItsBark) {
   bark.pairs = 0;  // no bark to compare: nothing shows the width
   EXPECT_FALSE(WideFitLinesUpOnBark(o, f, bark, 0.044));
   bark.peak_ncc = 0.38;
-  EXPECT_TRUE(WideFitLinesUpOnBark(o, f, bark, 0.05));  // under twice the cloud's radius
+  EXPECT_TRUE(WideFitLinesUpOnBark(o, f, bark, 0.075));  // under 1.4 times the cloud's radius
+  // A sapling's crown outlined around its few points, 1.6-1.8 times their width, its bark
+  // correlating at 0.4-0.67: not a stem; a stem's bark lines up.
+  for (const double times : {1.6, 1.8}) {
+    for (const double ncc : {0.4, 0.67, 0.9}) {
+      bark.pairs = 30;
+      bark.peak_ncc = ncc;
+      EXPECT_EQ(WideFitLinesUpOnBark(o, f, bark, f.radius_m / times), ncc >= 0.7)
+          << times << " times, ncc " << ncc;
+    }
+  }
+  bark.peak_ncc = 0.38;
   // Straight behind a listed stem the cloud saw a sliver: too few pairs to tell let the fit
   // stand; bark that fails to line up over enough pairs still does not.
   for (const int pairs : {0, o.bark_depth.min_pairs - 1}) {
