@@ -1267,8 +1267,9 @@ TEST(JudgeSilhouetteFit, AThinTwoSidedOutlineInsideAWiderPartIsASapling) {
 // to six times its width: its own fit, both sides in nearly every view on one circle to about a
 // pixel and its bark lining up, stands however narrow a share of the part it is; short of that
 // (fewer two-sided views, a loose fit, bark that does not line up), the part's width stands as
-// before; and a circle as narrow inside a stem of the part's width, on that stem's points, is not
-// taken. Swept over the stem's width and distance, the part's width, the views and the bark.
+// before; and a circle as narrow inside a stem of the part's width, whose own circle's bark lines
+// up, is not taken. Swept over the stem's width and distance, the part's width, the views and the
+// bark.
 TEST(JudgeSilhouetteFit, AStemWholeInNearlyEveryViewStandsInAPartManyTimesItsWidth) {
   const MeasureOptions o;
   MeasureOptions off = o;
