@@ -66,6 +66,11 @@ struct MeasureOptions {
   // A smeared part whose silhouettes fit a stem under this share of its width may be stems one
   // behind another: its cores replace it when two or more of them fit cleanly on their own.
   double narrow_fit_share = 0.6;
+  // So may a part whose cores face the centre from ranges farther apart than the wider core's
+  // width plus the stem depth smear (StemOptions::max_depth_smear_m), whatever its fit's width:
+  // one stem's face spans no more than its radius in range, and the fit of two stems nearly in
+  // line (the nearer one's outer side and the farther one's) is about as wide as their part.
+  bool try_cores_one_behind_another = true;
   // Two listed stems whose bark comes closer than this (m) at breast height are one stem fitted
   // twice (a fit that slid along its line of sight onto a nearer stem's silhouette): the one
   // whose fit moved farther from its points is dropped.
@@ -213,9 +218,9 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     MeasureOptions, stems, tangent, bark_depth, votes, min_dbh_cm, sapling_outline_max_dbh_cm,
     ground, uncertainty, require_silhouette, unfitted_parts_hide, keep_bark_confirmed_cloud,
     one_sided_max_over_cloud, one_sided_min_cloud_radius_m, min_core_share, narrow_fit_share,
-    min_bark_gap_m, larger_cloud_part_gap_m, larger_cloud_only_max_rms_px,
-    larger_cloud_whole_where_open, fit_on_cloud_max_pass_through, wide_fit_scale,
-    wide_fit_min_bark_ncc, loose_fit_rms_px, tight_fit_rms_px, min_judged_px_m,
+    try_cores_one_behind_another, min_bark_gap_m, larger_cloud_part_gap_m,
+    larger_cloud_only_max_rms_px, larger_cloud_whole_where_open, fit_on_cloud_max_pass_through,
+    wide_fit_scale, wide_fit_min_bark_ncc, loose_fit_rms_px, tight_fit_rms_px, min_judged_px_m,
     loose_wider_max_over_cloud, narrower_on_bark_two_sided_share,
     whole_in_wide_part_two_sided_share, narrower_max_bark_past_outline,
     outline_over_bark_two_sided_share, outline_over_bark_rms_px, outline_over_bark_cloud_share,

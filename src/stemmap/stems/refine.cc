@@ -186,6 +186,16 @@ bool OutlinesTheStemInMoreViews(const Stem& core, const Stem& fit) {
   return CirclesOverlap(core, fit) && share(core.evidence) > share(fit.evidence);
 }
 
+bool CoresOneBehindAnother(double max_depth_smear_m, std::span<const Stem> cores) {
+  for (size_t i = 0; i < cores.size(); ++i) {
+    for (size_t j = i + 1; j < cores.size(); ++j) {
+      const double apart_m = std::abs(cores[i].face_range_m - cores[j].face_range_m);
+      if (apart_m > std::max(cores[i].dbh_m, cores[j].dbh_m) + max_depth_smear_m) return true;
+    }
+  }
+  return false;
+}
+
 PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
                         const std::function<RefinedStem(Stem)>& refine, std::vector<Stem>* kept) {
   PartOutcome out;
@@ -208,9 +218,12 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
     return out;
   }
   // A fit far narrower than a smeared part with several cores may be one of stems standing
-  // one behind another: the cores decide, when two or more of them fit on their own.
-  const bool narrow_in_wide = verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
-                              s.dbh_tangent_m < o.narrow_fit_share * part_dbh_m;
+  // one behind another, and a fit of cores at ranges no one stem spans takes in two of them:
+  // the cores decide, when two or more of them fit on their own.
+  const bool narrow_in_wide =
+      verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
+      (s.dbh_tangent_m < o.narrow_fit_share * part_dbh_m ||
+       (o.try_cores_one_behind_another && CoresOneBehindAnother(o.stems.max_depth_smear_m, cores)));
   if (verdict == SilhouetteVerdict::kUse && !narrow_in_wide) {
     out.fitted = 1;
     kept->push_back(std::move(s));

@@ -107,6 +107,9 @@ struct PartOutcome {
 // Whether `core` and `fit` overlap (two circles of one stem) and `core` shows both sides in a
 // larger share of the views it was tried in (FitEvidence).
 bool OutlinesTheStemInMoreViews(const Stem& core, const Stem& fit);
+// Whether two of `cores` face the plot centre from ranges (Stem::face_range_m) farther apart than
+// the wider one's width plus `max_depth_smear_m`: no one stem's face spans that in range.
+bool CoresOneBehindAnother(double max_depth_smear_m, std::span<const Stem> cores);
 // What one part of the cloud becomes, appended to `kept`: the stem its silhouettes fit, the stems
 // its cores make, the stem of its cloud, or nothing. `refine` judges one stem by its silhouettes.
 // A core of a part no stem as a whole (Stem::mixed_part_core) becomes a stem only where its

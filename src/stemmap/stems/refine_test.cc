@@ -691,6 +691,16 @@ struct InLine {
   bool part_whole = true;  // the part's fit shows both sides in most views
 };
 
+// The InLine part with its cores' faces `apart_m` apart in range (each core's face is where its
+// circle's near side would be).
+Stem WithCoreFacesApart(Stem part, double apart_m) {
+  Stem& nearer = part.alternatives[0];
+  Stem& farther = part.alternatives[1];
+  nearer.face_range_m = nearer.centre_xy.norm() - 0.5 * nearer.dbh_m;
+  farther.face_range_m = nearer.face_range_m + apart_m;
+  return part;
+}
+
 TEST(ResolvePart, AFitFarNarrowerThanASmearedPartGivesWayToItsCores) {
   InLine c;
   c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
@@ -905,12 +915,55 @@ TEST(ResolvePart, AFitNearThePartsWidthKeepsThePartWithoutTryingItsCores) {
   InLine c;
   c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
   c.part_fit_dbh_m = 0.40;
+  c.part = WithCoreFacesApart(c.part, 0.1);
   std::vector<Stem> kept;
   ResolvePart(
       {}, c.part, [&](Stem s) { return c.Refine(std::move(s)); }, &kept);
   ASSERT_EQ(kept.size(), 1u);
   EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.40);
   EXPECT_EQ(c.refined, 1);
+}
+
+// Cores whose faces lie farther apart in range than the wider core's width and the depth smear
+// (0.17 + 0.3 m here) are no one stem's surface, whatever the part's fit: from 0.5 m to 2 m
+// apart, the part's fit about as wide as the part (it runs from the nearer stem's outer side to
+// the farther one's) gives way to the two cores that fit on their own. Nearer together in range
+// (one stem's face and its smear), or with the rule off, the part's fit stands untried.
+TEST(ResolvePart, CoresOneBehindAnotherReplaceAFitAsWideAsTheirPart) {
+  for (const double apart_m : {0.0, 0.2, 0.45, 0.5, 0.8, 1.2, 2.0}) {
+    for (const bool rule : {true, false}) {
+      SCOPED_TRACE(::testing::Message() << "faces " << apart_m << " m apart, rule " << rule);
+      InLine c;
+      c.fitting = {{8.2, -0.1}, {9.1, -0.5}};
+      c.part_fit_dbh_m = 0.40;
+      c.part = WithCoreFacesApart(c.part, apart_m);
+      MeasureOptions o;
+      o.try_cores_one_behind_another = rule;
+      std::vector<Stem> kept;
+      const PartOutcome out = ResolvePart(
+          o, c.part, [&](Stem s) { return c.Refine(std::move(s)); }, &kept);
+      const bool apart = rule && apart_m > 0.17 + o.stems.max_depth_smear_m;
+      EXPECT_EQ(CoresOneBehindAnother(o.stems.max_depth_smear_m, c.part.alternatives),
+                apart_m > 0.17 + o.stems.max_depth_smear_m);
+      ASSERT_EQ(kept.size(), apart ? 2u : 1u);
+      EXPECT_EQ(out.from_cores, apart ? 2 : 0);
+      EXPECT_DOUBLE_EQ(kept[0].dbh_m, apart ? 0.17 : 0.40);
+      EXPECT_EQ(c.refined, apart ? 3 : 1);
+    }
+  }
+}
+
+// ... and where fewer than two of those cores fit on their own, the part's fit stands.
+TEST(ResolvePart, OneCoreOfTwoOneBehindAnotherLeavesThePartsFit) {
+  InLine c;
+  c.fitting = {{8.2, -0.1}};
+  c.part_fit_dbh_m = 0.40;
+  c.part = WithCoreFacesApart(c.part, 1.0);
+  std::vector<Stem> kept;
+  ResolvePart(
+      {}, c.part, [&](Stem s) { return c.Refine(std::move(s)); }, &kept);
+  ASSERT_EQ(kept.size(), 1u);
+  EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.40);
 }
 
 // A silhouette is jagged where its bands stray from its line by more than both a centimetre and
