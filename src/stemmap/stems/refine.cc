@@ -736,10 +736,16 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
     // The votes' circle and the outline's, from different edges, agree: the bark need not line
     // up, but it must correlate somewhere (BarkDepthOptions::min_surface_ncc): inside a leaf
     // clump's or a shrub's outline nothing does.
-    const bool agrees_with_votes = s.silhouette_votes > 0 && outline.ok &&
-                                   FitAgreesWithVotes(o.votes, s.centre_xy, r0, outline.centre,
-                                                      outline.radius_m, outline.two_sided_views) &&
-                                   (f.ok || bark.peak_ncc >= o.bark_depth.min_surface_ncc);
+    // Each side seen in views of its own counts where the outline keeps to one circle within 2
+    // px: past a nearer stem, a stem shows one side at a time.
+    const int each_side_views = outline.ok && outline.rms_m < 2 * judged_px_m
+                                    ? std::min(outline.SideViews(0), outline.SideViews(1))
+                                    : 0;
+    const bool agrees_with_votes =
+        s.silhouette_votes > 0 && outline.ok &&
+        FitAgreesWithVotes(o.votes, s.centre_xy, r0, outline.centre, outline.radius_m,
+                           outline.two_sided_views, each_side_views) &&
+        (f.ok || bark.peak_ncc >= o.bark_depth.min_surface_ncc);
     if (!f.ok && agrees_with_votes) {
       spdlog::debug(
           "stems: ({:.2f}, {:.2f}) r {:.3f}: the outline agrees with the silhouettes' votes ({} at "
@@ -823,8 +829,9 @@ void RefineWithTangentRays(const MeasureOptions& o, const PinholeCamera& bgr_cam
       leaves.emplace_back(f.centre.x(), f.centre.y(), f.radius_m);
       return RefinedStem{SilhouetteVerdict::kDrop, std::move(s), false};
     }
-    // (A fit held on its face stands on its own sides; once the bark vetoed it, it does not.)
-    if (behind_nearer && !(on_face && f.ok) &&
+    // (A fit held on its face stands on its own sides; once the bark vetoed it, it does not. Nor
+    // does one that agrees with the votes' circle: two estimators from different edges.)
+    if (behind_nearer && !(on_face && f.ok) && !agrees_with_votes &&
         !StandsOnItsOwnSilhouettes(o.tangent, f, judged_px_m)) {
       const std::array<int, 2> side_views = cloud_side_views();
       if (ShowsSidesPastNearerStem(o, s, r0, kept, side_views)) {

@@ -60,7 +60,8 @@ void SilhouetteVoteOptions::Check() const {
   if (min_cell_votes < 1 || min_cell_votes > min_votes) {
     throw InputError("a silhouette vote grid's cell needs between one vote and min_votes");
   }
-  if (!(agree_radius_share >= 0 && agree_radius_m >= 0 && agree_min_two_sided_views >= 0)) {
+  if (!(agree_radius_share >= 0 && agree_radius_m >= 0 && agree_min_two_sided_views >= 0 &&
+        agree_min_views_each_side >= 0)) {
     throw InputError("the silhouette votes' agreement with a fit must not be negative");
   }
   if (!(min_separation_m >= 0)) {
@@ -70,8 +71,11 @@ void SilhouetteVoteOptions::Check() const {
 
 bool FitAgreesWithVotes(const SilhouetteVoteOptions& o, const Eigen::Vector2d& vote_centre,
                         double vote_radius_m, const Eigen::Vector2d& centre, double radius_m,
-                        int two_sided_views) {
-  return o.agree_min_two_sided_views > 0 && two_sided_views >= o.agree_min_two_sided_views &&
+                        int two_sided_views, int each_side_views) {
+  const bool sides_seen =
+      two_sided_views >= o.agree_min_two_sided_views ||
+      (o.agree_min_views_each_side > 0 && each_side_views >= o.agree_min_views_each_side);
+  return o.agree_min_two_sided_views > 0 && sides_seen &&
          std::abs(radius_m - vote_radius_m) <=
              o.agree_radius_share * vote_radius_m + o.agree_radius_m &&
          (centre - vote_centre).norm() <= std::max(vote_radius_m, o.cell_m);

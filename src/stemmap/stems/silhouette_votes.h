@@ -79,6 +79,10 @@ struct SilhouetteVoteOptions {
   double agree_radius_share = 0.2;
   double agree_radius_m = 0.005;
   int agree_min_two_sided_views = 3;
+  // Or each side in at least this many views of its own, the fit on one circle to within 2 px
+  // (the caller counts them, FitAgreesWithVotes): a stem just past a nearer one shows one side at
+  // a time, from either end of the arm. 0: off.
+  int agree_min_views_each_side = 4;
   double min_separation_m = 0.5;
   void Check() const;
 };
@@ -88,7 +92,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE_WITH_DEFAULT(
     min_edge_straightness, neighbour_baseline_m, short_baseline_m, side_patch_px, side_guard_px,
     max_parallax_px, min_side_ncc, min_parallax_step_px, flat_side_sd, parallax_sd_px,
     min_vote_span_m, min_votes, min_votes_each_side, min_cell_votes, min_separation_m,
-    agree_radius_share, agree_radius_m, agree_min_two_sided_views)
+    agree_radius_share, agree_radius_m, agree_min_two_sided_views, agree_min_views_each_side)
 
 // A silhouette in the plot plane: the camera centre, the ray's azimuth, the side the nearer
 // surface lies on (+1 left of the ray looking along it, -1 right) and the distance along the ray
@@ -106,11 +110,12 @@ struct VoteCandidate {
   int votes = 0;
 };
 
-// Whether a fit of the silhouettes (centre, radius_m, two-sided in two_sided_views) agrees with
-// the votes' circle (vote_centre, vote_radius_m) as SilhouetteVoteOptions::agree_* says.
+// Whether a fit of the silhouettes (centre, radius_m, two-sided in two_sided_views, each side in
+// at least each_side_views views where its rays keep to one circle within 2 px, else 0) agrees
+// with the votes' circle (vote_centre, vote_radius_m) as SilhouetteVoteOptions::agree_* says.
 bool FitAgreesWithVotes(const SilhouetteVoteOptions& o, const Eigen::Vector2d& vote_centre,
                         double vote_radius_m, const Eigen::Vector2d& centre, double radius_m,
-                        int two_sided_views);
+                        int two_sided_views, int each_side_views = 0);
 
 // The silhouettes of every keyframe (gray: CV_8U per keyframe, empty where missing; camera: of
 // those images; keyframes: plot frame, in the order of the turn).

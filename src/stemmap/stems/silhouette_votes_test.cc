@@ -79,6 +79,10 @@ TEST(FitAgreesWithVotes, RadiusWithinItsShareCentreWithinTheRadiusBothSidesInVie
   EXPECT_FALSE(FitAgreesWithVotes(o, c, 0.1, c, 0.13, 3));  // wider by over a fifth and 5 mm
   EXPECT_FALSE(FitAgreesWithVotes(o, c, 0.1, c + Eigen::Vector2d(0.11, 0), 0.1, 3));
   EXPECT_FALSE(FitAgreesWithVotes(o, c, 0.1, c, 0.1, 2));  // both sides in too few views
+  // Past a nearer stem, each side in views of its own will do.
+  EXPECT_TRUE(FitAgreesWithVotes(o, c, 0.1, c, 0.1, 0, 4));
+  EXPECT_FALSE(FitAgreesWithVotes(o, c, 0.1, c, 0.1, 1, 3));
+  EXPECT_FALSE(FitAgreesWithVotes(o, c, 0.1, c, 0.13, 0, 9));
   // A thin stem's centre may move a cell.
   EXPECT_TRUE(FitAgreesWithVotes(o, c, 0.03, c + Eigen::Vector2d(0, 0.045), 0.03, 3));
   SilhouetteVoteOptions off = o;
