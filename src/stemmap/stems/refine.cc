@@ -220,11 +220,11 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   // A fit far narrower than a smeared part with several cores may be one of stems standing
   // one behind another, and a fit of cores at ranges no one stem spans takes in two of them:
   // the cores decide, when two or more of them fit on their own.
-  const bool narrow_in_wide =
+  const bool cores_decide =
       verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
       (s.dbh_tangent_m < o.narrow_fit_share * part_dbh_m ||
        (o.try_cores_one_behind_another && CoresOneBehindAnother(o.stems.max_depth_smear_m, cores)));
-  if (verdict == SilhouetteVerdict::kUse && !narrow_in_wide) {
+  if (verdict == SilhouetteVerdict::kUse && !cores_decide) {
     out.fitted = 1;
     kept->push_back(std::move(s));
     return out;
@@ -269,7 +269,7 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   // inside a stem matches lines of its bark in some views, its outline matches in nearly all.
   const bool one_whole_core = from_cores == 1 && whole_cores == 1 &&
                               (!whole || OutlinesTheStemInMoreViews(kept->back(), s));
-  if (narrow_in_wide && from_cores < 2 && !one_whole_core) {
+  if (cores_decide && from_cores < 2 && !one_whole_core) {
     // Fewer than two: the whole part's fit stands.
     kept->resize(before);
     out.fitted = 1;

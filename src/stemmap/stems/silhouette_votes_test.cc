@@ -70,6 +70,7 @@ TEST(SilhouetteVoteOptions, EveryFieldIsChecked) {
   throws([](SilhouetteVoteOptions& o) { o.min_votes_each_side = -1; });
   throws([](SilhouetteVoteOptions& o) { o.agree_radius_share = -0.1; });
   throws([](SilhouetteVoteOptions& o) { o.agree_min_two_sided_views = -1; });
+  throws([](SilhouetteVoteOptions& o) { o.agree_min_views_each_side = -1; });
 }
 
 TEST(FitAgreesWithVotes, RadiusWithinItsShareCentreWithinTheRadiusBothSidesInViews) {
