@@ -86,6 +86,11 @@ void MeasureOptions::Check() const {
     throw InputError(
         "the cloud's share within which an outline outweighs its bark must not be negative");
   }
+  if (!(outline_over_bark_smear_m >= 0)) {
+    throw InputError(
+        "the cloud's smear an outline that outweighs its bark may be narrower by "
+        "must not be negative");
+  }
   if (!(weak_on_bark_max_rms_px >= 0)) {
     throw InputError("the rms of a weak part's outline on its bark must not be negative");
   }

@@ -632,12 +632,19 @@ bool OutlineOutweighsPlainBark(const MeasureOptions& o, const TangentFit& fit,
   const Eigen::Vector2d across = Eigen::Vector2d(-cloud_centre.y(), cloud_centre.x()).normalized();
   const bool where_the_cloud_is =
       std::abs((fit.centre - cloud_centre).dot(across)) <= cloud_radius_m;
+  // Stereo's smear widens the cloud but leaves its face where the stem's is: an outline narrower
+  // than the cloud by the smear has its face within the smear's depth of the cloud's. (Farther
+  // off, the outline is of something else: a stem behind a smear where nothing stands.)
+  const double face_gap_m =
+      std::abs((fit.centre.norm() - fit.radius_m) - (cloud_centre.norm() - cloud_radius_m));
+  const double smear_m =
+      face_gap_m <= o.stems.max_depth_smear_m ? o.outline_over_bark_smear_m : 0.0;
   return fit.ok && where_the_cloud_is && !bark.ok && !bark.at_search_end &&
          bark.pairs >= o.bark_depth.min_pairs && bark.peak_ncc < o.bark_depth.min_surface_ncc &&
          fit.two_sided_views >= o.outline_over_bark_two_sided_share * fit.tried_views &&
          fit.rms_m < o.outline_over_bark_rms_px * px_m &&
-         std::abs(fit.radius_m - cloud_radius_m) <=
-             o.outline_over_bark_cloud_share * cloud_radius_m;
+         fit.radius_m <= (1 + o.outline_over_bark_cloud_share) * cloud_radius_m &&
+         fit.radius_m >= (1 - o.outline_over_bark_cloud_share) * cloud_radius_m - smear_m;
 }
 
 bool WideFitLinesUpOnBark(const MeasureOptions& o, const TangentFit& fit, const BarkDepth& bark,

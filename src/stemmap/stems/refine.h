@@ -221,7 +221,8 @@ BarkDepth CheckFitOnBark(const BarkDepthOptions& o, const TangentOptions& t,
 // search, inside a whole, tight outline as wide as the cloud's points (`cloud_radius_m`) and
 // where they are: its centre off the cloud's (`cloud_centre`) by at most that radius across the
 // line of sight (a circle around one side of the stem and what stands beside it has an outline
-// too, and no bark).
+// too, and no bark). Narrower than the cloud by its share and outline_over_bark_smear_m only
+// where its face lies within StemOptions::max_depth_smear_m of the cloud's.
 bool OutlineOutweighsPlainBark(const MeasureOptions& o, const TangentFit& fit,
                                const BarkDepth& bark, const Eigen::Vector2d& cloud_centre,
                                double cloud_radius_m, double px_m);

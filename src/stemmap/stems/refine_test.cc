@@ -228,40 +228,46 @@ TEST(HasSharpSilhouettes, BothSidesInThreeViewsOnOneCircleToHalfAPixel) {
 
 // Bark that correlates nowhere between views (leaves or their shadows across it) says nothing
 // against a whole outline as wide as the cloud's points: such a fit stands. Swept over the
-// outline's two-sided views, its rays' scatter, its width against the cloud's, and the bark's
-// correlation and where it peaked; anything short of a whole, tight outline the cloud's width
-// confirms, or bark that lines up best at the search's end, leaves the bark's verdict standing.
+// outline's two-sided views, its rays' scatter, its width against the cloud's (narrower by the
+// cloud's share and stereo's smear, wider by the share; a thin stem's cloud and a thick one's),
+// and the bark's correlation and where it peaked; anything short of a whole, tight outline the
+// cloud's width confirms, or bark that lines up best at the search's end, leaves the bark's
+// verdict standing.
 TEST(OutlineOutweighsPlainBark, OnlyAWholeTightOutlineAsWideAsTheCloudOutweighsPlainBark) {
   const MeasureOptions o;
-  const double px_m = 0.006, cloud_r = 0.13;
-  for (int two_sided : {6, 13, 14, 25}) {
-    for (double rms_px : {0.5, 1.0, 1.5}) {
-      for (double width : {0.7, 0.85, 1.0, 1.15, 1.3}) {
-        for (double ncc : {0.1, 0.25, 0.5}) {
-          for (bool at_end : {false, true}) {
-            TangentFit f;
-            f.ok = true;
-            f.tried_views = 27;
-            f.two_sided_views = two_sided;
-            f.rms_m = rms_px * px_m;
-            f.radius_m = width * cloud_r;
-            BarkDepth bark;
-            bark.pairs = 40;
-            bark.peak_ncc = ncc;
-            bark.at_search_end = at_end;
-            const bool whole = 2 * two_sided >= 27, tight = rms_px < 1.2;
-            const bool as_wide = std::abs(width - 1.0) <= 0.2 + 1e-9;
-            const bool plain = ncc < o.bark_depth.min_surface_ncc && !at_end;
-            EXPECT_EQ(OutlineOutweighsPlainBark(o, f, bark, f.centre, cloud_r, px_m),
-                      whole && tight && as_wide && plain)
-                << two_sided << " two-sided, " << rms_px << " px, width " << width << ", ncc "
-                << ncc << (at_end ? " at the end" : "");
+  const double px_m = 0.006;
+  for (double cloud_r : {0.13, 0.085}) {
+    for (int two_sided : {6, 13, 14, 25}) {
+      for (double rms_px : {0.5, 1.0, 1.5}) {
+        for (double width : {0.4, 0.5, 0.6, 0.7, 0.85, 1.0, 1.15, 1.3}) {
+          for (double ncc : {0.1, 0.25, 0.5}) {
+            for (bool at_end : {false, true}) {
+              TangentFit f;
+              f.ok = true;
+              f.tried_views = 27;
+              f.two_sided_views = two_sided;
+              f.rms_m = rms_px * px_m;
+              f.radius_m = width * cloud_r;
+              BarkDepth bark;
+              bark.pairs = 40;
+              bark.peak_ncc = ncc;
+              bark.at_search_end = at_end;
+              const bool whole = 2 * two_sided >= 27, tight = rms_px < 1.2;
+              const bool as_wide = width <= 1.2 + 1e-9 &&
+                                   width * cloud_r >= 0.8 * cloud_r - o.outline_over_bark_smear_m;
+              const bool plain = ncc < o.bark_depth.min_surface_ncc && !at_end;
+              EXPECT_EQ(OutlineOutweighsPlainBark(o, f, bark, f.centre, cloud_r, px_m),
+                        whole && tight && as_wide && plain)
+                  << "cloud r " << cloud_r << ", " << two_sided << " two-sided, " << rms_px
+                  << " px, width " << width << ", ncc " << ncc << (at_end ? " at the end" : "");
+            }
           }
         }
       }
     }
   }
   // Too few pairs compared: the bark check had nothing to say, and nothing to outweigh.
+  const double cloud_r = 0.13;
   TangentFit f;
   f.ok = true;
   f.tried_views = f.two_sided_views = 20;
@@ -270,6 +276,37 @@ TEST(OutlineOutweighsPlainBark, OnlyAWholeTightOutlineAsWideAsTheCloudOutweighsP
   BarkDepth bark;
   bark.pairs = o.bark_depth.min_pairs - 1;
   EXPECT_FALSE(OutlineOutweighsPlainBark(o, f, bark, f.centre, cloud_r, px_m));
+}
+
+// Stereo's smear widens a thin far stem's cloud and leaves its face where it is: an outline
+// narrower than the cloud by more than its share (within outline_over_bark_smear_m) stands only
+// with its face within StemOptions::max_depth_smear_m of the cloud's; one within the share
+// stands whatever the gap (along the line of sight the cloud's depth is too rough to judge by).
+// Swept over the faces' gap, nearer and farther.
+TEST(OutlineOutweighsPlainBark, NarrowerByTheSmearOnlyWithItsFaceAtTheClouds) {
+  const MeasureOptions o;
+  const double px_m = 0.01, cloud_r = 0.089;
+  const Eigen::Vector2d cloud(7.21, 2.36);
+  const Eigen::Vector2d along = cloud.normalized();
+  for (double radius_m : {0.064, 0.08}) {
+    for (double gap_m : {-0.7, -0.4, -0.2, 0.0, 0.2, 0.4}) {
+      TangentFit f;
+      f.ok = true;
+      f.tried_views = 48;
+      f.two_sided_views = 42;
+      f.rms_m = 0.3 * px_m;
+      f.radius_m = radius_m;
+      // The fit's face (centre's range less its radius) gap_m from the cloud's.
+      f.centre = cloud + (gap_m + radius_m - cloud_r) * along;
+      BarkDepth bark;
+      bark.pairs = 61;
+      bark.peak_ncc = 0.17;
+      const bool within_share = radius_m >= (1 - o.outline_over_bark_cloud_share) * cloud_r;
+      EXPECT_EQ(OutlineOutweighsPlainBark(o, f, bark, cloud, cloud_r, px_m),
+                within_share || std::abs(gap_m) <= o.stems.max_depth_smear_m)
+          << "radius " << radius_m << ", faces " << gap_m << " m apart";
+    }
+  }
 }
 
 // A circle around one side of a stem and what stands beside it (a nearer sapling hid the stem's

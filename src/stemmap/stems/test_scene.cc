@@ -68,13 +68,16 @@ RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool texture
           const double az = std::atan2(hit.y(), hit.x());
           luma = 80 + 40 * i;
           if (texture == Texture::kRegular) luma += 25 * std::sin(40 * az);
-          if (texture == Texture::kIrregular || texture == Texture::kLimbShaded) {
+          if (texture == Texture::kIrregular || texture == Texture::kLimbShaded ||
+              texture == Texture::kNoisyBark) {
             // Bark pieces about 3 cm across and 5 cm high.
             const double z = world_from_cam.translation.z() + t * ray.z();
-            luma += 40 * noise.Noise2(stems[i].z() * (az + M_PI) / 0.03 + 100 * i, z / 0.05);
+            const double contrast = texture == Texture::kNoisyBark ? 20 : 40;
+            luma += contrast * noise.Noise2(stems[i].z() * (az + M_PI) / 0.03 + 100 * i, z / 0.05);
           }
           const double facing = -hit.normalized().dot(stems[i].head<2>().normalized());
           if (texture == Texture::kLimbShaded && facing < std::cos(50 * M_PI / 180)) luma -= 60;
+          if (texture == Texture::kNoisyBark) luma += 40 * noise.Noise3(0.5 * x, 0.5 * y, 7.3 * k);
           if (sunlit)
             luma = 70 + 130 * std::sqrt(std::max(0.0, hit.normalized().y())) + 0.4 * (luma - 80);
         }
@@ -91,7 +94,8 @@ RenderedStem RenderStems(const std::vector<Eigen::Vector3d>& stems, bool texture
         if (nearest > 1e8 && textured_background) {
           const double az = std::atan2(u.y(), u.x());
           const double elevation = ray.z() / u.norm();
-          luma = texture == Texture::kIrregular || texture == Texture::kLimbShaded
+          luma = texture == Texture::kIrregular || texture == Texture::kLimbShaded ||
+                         texture == Texture::kNoisyBark
                      ? 150 + 60 * noise.Noise2(az * 250.0 + 300.0, elevation * 60.0)
                      : 150 + 50 * std::sin(400 * az) * std::cos(30 * elevation);
         }

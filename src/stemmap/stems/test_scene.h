@@ -22,8 +22,11 @@ struct RenderedStem {
 // bark (one grey) before the regular background, or irregular bark whose limbs are shaded (where
 // the surface turns more than 50 degrees from the plot centre, 60 grey levels darker: shading
 // symmetric about the line of sight, whose edges lie at a fixed share of the stem's apparent
-// half-width in every view).
-enum class Texture { kRegular, kIrregular, kPlainBark, kLimbShaded };
+// half-width in every view), or noisy bark: irregular bark at half its contrast beneath a new
+// pattern of 2-pixel grains in each keyframe (furrows finer than a pixel, aliased differently in
+// each view; leaf shadows moving across it), on which views correlate at about 0.2, before the
+// irregular background.
+enum class Texture { kRegular, kIrregular, kPlainBark, kLimbShaded, kNoisyBark };
 
 // A sapling's leaf clump: an ellipsoid (centre and semi-axes, plot frame, m) of leaves a few
 // centimetres across with leaf-sized holes, denser towards its centre (density: about the share
