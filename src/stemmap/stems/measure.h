@@ -156,7 +156,7 @@ struct MeasureOptions {
   // within this share of the cloud's, stands where its bark correlates under
   // BarkDepthOptions::min_surface_ncc at every distance; not where the bark lines up best at the
   // end of the search (the circle lies away from the bark it encloses). The cloud's points of a
-  // stem spread wider than it by stereo's smear, by a few centimetres whatever its width, so an
+  // stem spread wider than it by stereo's smear, a few centimetres on a thin far stem, so an
   // outline may also be narrower than the cloud's share by outline_over_bark_smear_m of radius
   // (m), where its face lies within StemOptions::max_depth_smear_m of the cloud's (the smear
   // leaves the face where it is): on fresh plots, stems under 18 cm beyond 5 m had the cloud's
