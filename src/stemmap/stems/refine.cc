@@ -220,10 +220,11 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   // A fit far narrower than a smeared part with several cores may be one of stems standing
   // one behind another, and a fit of cores at ranges no one stem spans takes in two of them:
   // the cores decide, when two or more of them fit on their own.
+  const bool several_cores = verdict == SilhouetteVerdict::kUse && cores.size() >= 2;
+  const bool narrow_in_wide = several_cores && s.dbh_tangent_m < o.narrow_fit_share * part_dbh_m;
   const bool cores_decide =
-      verdict == SilhouetteVerdict::kUse && cores.size() >= 2 &&
-      (s.dbh_tangent_m < o.narrow_fit_share * part_dbh_m ||
-       (o.try_cores_one_behind_another && CoresOneBehindAnother(o.stems.max_depth_smear_m, cores)));
+      narrow_in_wide || (several_cores && o.try_cores_one_behind_another &&
+                         CoresOneBehindAnother(o.stems.max_depth_smear_m, cores));
   if (verdict == SilhouetteVerdict::kUse && !cores_decide) {
     out.fitted = 1;
     kept->push_back(std::move(s));
@@ -267,7 +268,11 @@ PartOutcome ResolvePart(const MeasureOptions& o, Stem part,
   // and the part's fit does not (that fit caught what stands beside the stem), or when both
   // outline one stem and the core's shows both sides in more of its views: a narrower circle
   // inside a stem matches lines of its bark in some views, its outline matches in nearly all.
-  const bool one_whole_core = from_cores == 1 && whole_cores == 1 &&
+  // Not where the cores decided for facing the centre from ranges apart, the part's fit as wide
+  // as the part: stems one behind another are two, and with one core standing the part is one
+  // stem whose fit outlines it (the ranges apart were stereo's smear of a far stem; the core's
+  // circle, inside it, followed the shading across its bark).
+  const bool one_whole_core = narrow_in_wide && from_cores == 1 && whole_cores == 1 &&
                               (!whole || OutlinesTheStemInMoreViews(kept->back(), s));
   if (cores_decide && from_cores < 2 && !one_whole_core) {
     // Fewer than two: the whole part's fit stands.

@@ -1003,6 +1003,35 @@ TEST(ResolvePart, OneCoreOfTwoOneBehindAnotherLeavesThePartsFit) {
   EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.40);
 }
 
+// ... nor where the one core that fits outlines the stem too, inside the part's fit and both
+// sides in more of its views (a far stem smeared in depth, whose cloud gave cores at ranges apart,
+// and a circle following the shading across its bark): stems one behind another are two, and the
+// part's fit, as wide as the part, stands. Swept over the core's two-sided views. (The same core
+// replaces a fit far narrower than its part: OfAPartsFitAndAWholeCoreOverItTheOneTwoSidedInMore-
+// ViewsStands.)
+TEST(ResolvePart, OneCoreOverThePartsFitOfCoresOneBehindAnotherLeavesThePartsFit) {
+  for (const int core_two_sided : {15, 19, 25}) {
+    SCOPED_TRACE(::testing::Message() << "core two-sided in " << core_two_sided << " views");
+    Stem part = WithCoreFacesApart(InLine().part, 1.0);
+    const Eigen::Vector2d part_centre = part.centre_xy;
+    auto refine = [&](Stem s) {
+      const bool is_part = (s.centre_xy - part_centre).norm() < 1e-9;
+      const bool sliver = (s.centre_xy - Eigen::Vector2d(8.2, -0.1)).norm() < 1e-9;
+      if (sliver) return RefinedStem{SilhouetteVerdict::kDrop, std::move(s)};
+      s.centre_xy = is_part ? Eigen::Vector2d(8.8, -0.3) : Eigen::Vector2d(8.82, -0.31);
+      s.dbh_m = s.dbh_tangent_m = is_part ? 0.32 : 0.23;
+      s.evidence.tried_views = 25;
+      s.evidence.two_sided_views = is_part ? 14 : core_two_sided;
+      return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, true};
+    };
+    std::vector<Stem> kept;
+    const PartOutcome out = ResolvePart({}, part, refine, &kept);
+    ASSERT_EQ(kept.size(), 1u);
+    EXPECT_DOUBLE_EQ(kept[0].dbh_m, 0.32);
+    EXPECT_EQ(out.from_cores, 0);
+  }
+}
+
 // A silhouette is jagged where its bands stray from its line by more than both a centimetre and
 // 1.2 px at the stem; two thirds of a fit's silhouettes jagged make it leaves, except straight
 // behind a listed stem.
