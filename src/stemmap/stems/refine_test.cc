@@ -805,6 +805,27 @@ TEST(ResolvePart, OneWholeCoreReplacesAPartialFitOfItsPart) {
   EXPECT_EQ(out.from_cores, 1);
 }
 
+// What the silhouettes say of a part and its two cores where one core is a sliver that fits
+// nothing and the other outlines the same stem as the part: each fit (its circle, DBH and
+// two-sided views of `tried_views`) whole and clean.
+struct PartWithOneCoreOverIt {
+  Eigen::Vector2d part_centre, sliver_centre;
+  Eigen::Vector2d part_fit_centre, core_fit_centre;
+  double part_fit_dbh_m, core_fit_dbh_m;
+  int tried_views, part_two_sided, core_two_sided;
+  RefinedStem operator()(Stem s) const {
+    const bool is_part = (s.centre_xy - part_centre).norm() < 1e-9;
+    if ((s.centre_xy - sliver_centre).norm() < 1e-9) {
+      return RefinedStem{SilhouetteVerdict::kDrop, std::move(s)};
+    }
+    s.centre_xy = is_part ? part_fit_centre : core_fit_centre;
+    s.dbh_m = s.dbh_tangent_m = is_part ? part_fit_dbh_m : core_fit_dbh_m;
+    s.evidence.tried_views = tried_views;
+    s.evidence.two_sided_views = is_part ? part_two_sided : core_two_sided;
+    return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, true};
+  }
+};
+
 // A part smeared wide (33 cm) whose own fit, a 17.6-cm circle inside the stem, shows both sides
 // in 12 of 23 views, and whose core's fit, a 30-cm circle over it, in more or fewer: both
 // outline one stem, and the one that shows both sides in more of its views stands. A second
@@ -814,16 +835,9 @@ TEST(ResolvePart, OfAPartsFitAndAWholeCoreOverItTheOneTwoSidedInMoreViewsStands)
     Stem part = Fitted(7.32, 2.25, 0.0, 0.0);
     part.dbh_slice_m = 0.332;
     part.alternatives = {Fitted(7.03, 2.29, 0.0, 0.0), Fitted(7.29, 2.53, 0.0, 0.0)};
-    auto refine = [&](Stem s) {
-      const bool is_part = (s.centre_xy - part.centre_xy).norm() < 1e-9;
-      const bool sliver = (s.centre_xy - Eigen::Vector2d(7.29, 2.53)).norm() < 1e-9;
-      if (sliver) return RefinedStem{SilhouetteVerdict::kDrop, std::move(s)};
-      s.centre_xy = is_part ? Eigen::Vector2d(7.14, 2.24) : Eigen::Vector2d(7.15, 2.30);
-      s.dbh_m = s.dbh_tangent_m = is_part ? 0.176 : 0.30;
-      s.evidence.tried_views = 23;
-      s.evidence.two_sided_views = is_part ? 12 : core_two_sided;
-      return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, true};
-    };
+    const PartWithOneCoreOverIt refine{part.centre_xy, {7.29, 2.53}, {7.14, 2.24}, {7.15, 2.30},
+                                       0.176,          0.30,         23,           12,
+                                       core_two_sided};
     std::vector<Stem> kept;
     const PartOutcome out = ResolvePart({}, part, refine, &kept);
     const bool core_stands = core_two_sided > 12;
@@ -1013,17 +1027,9 @@ TEST(ResolvePart, OneCoreOverThePartsFitOfCoresOneBehindAnotherLeavesThePartsFit
   for (const int core_two_sided : {15, 19, 25}) {
     SCOPED_TRACE(::testing::Message() << "core two-sided in " << core_two_sided << " views");
     Stem part = WithCoreFacesApart(InLine().part, 1.0);
-    const Eigen::Vector2d part_centre = part.centre_xy;
-    auto refine = [&](Stem s) {
-      const bool is_part = (s.centre_xy - part_centre).norm() < 1e-9;
-      const bool sliver = (s.centre_xy - Eigen::Vector2d(8.2, -0.1)).norm() < 1e-9;
-      if (sliver) return RefinedStem{SilhouetteVerdict::kDrop, std::move(s)};
-      s.centre_xy = is_part ? Eigen::Vector2d(8.8, -0.3) : Eigen::Vector2d(8.82, -0.31);
-      s.dbh_m = s.dbh_tangent_m = is_part ? 0.32 : 0.23;
-      s.evidence.tried_views = 25;
-      s.evidence.two_sided_views = is_part ? 14 : core_two_sided;
-      return RefinedStem{SilhouetteVerdict::kUse, std::move(s), true, true};
-    };
+    const PartWithOneCoreOverIt refine{part.centre_xy, {8.2, -0.1}, {8.8, -0.3}, {8.82, -0.31},
+                                       0.32,           0.23,        25,          14,
+                                       core_two_sided};
     std::vector<Stem> kept;
     const PartOutcome out = ResolvePart({}, part, refine, &kept);
     ASSERT_EQ(kept.size(), 1u);
